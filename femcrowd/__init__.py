@@ -1,0 +1,8 @@
+"""femcrowd: finite-element crowd motion with hard congestion."""
+
+from importlib.metadata import PackageNotFoundError, version
+
+try:
+    __version__ = version("femcrowd")
+except PackageNotFoundError:  # running from a source tree that is not installed
+    __version__ = "0.0.0+unknown"

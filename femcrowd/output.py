@@ -1,0 +1,111 @@
+"""Run outputs: VTU frames + PVD collection, history.csv, summary.json (case-format contract).
+
+Every file is written so that an interrupted run leaves what it wrote readable:
+frames are complete files, the PVD index and summary.json are replaced
+atomically, history.csv is flushed row by row. A directory holding files that
+femcrowd did not write is never written into unless the user forces it.
+"""
+
+import csv
+import json
+import os
+import shutil
+from pathlib import Path
+
+import meshio
+import numpy as np
+
+from .errors import InputError
+
+MARKER = ".femcrowd-run"
+OWN_FILES = ("*.vtu", "*.pvd", "history.csv", "summary.json", "case.toml", "*.csv", "*.png", "*.gif", "*.md")
+
+
+def prepare_output_dir(path, case_file, force=False):
+    """Create the output directory, or clear a previous femcrowd run in it; refuse foreign ones."""
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise InputError(case_file, "output.dir", str(path), "exists and is not a directory")
+    if path.is_dir() and any(path.iterdir()) and not (path / MARKER).exists() and not force:
+        raise InputError(case_file, "output.dir", str(path),
+                         "directory is not empty and was not written by femcrowd "
+                         "(choose another --out, or pass --force to write into it)")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise InputError(case_file, "output.dir", str(path), f"cannot create: {err.strerror}") from None
+    if (path / MARKER).exists():
+        for pattern in OWN_FILES:
+            for old in path.glob(pattern):
+                old.unlink()
+    (path / MARKER).write_text("written by femcrowd; safe to overwrite with a new run\n")
+    return path
+
+
+def write_json(path, data):
+    """Write JSON atomically (a reader never sees half a file)."""
+    tmp = Path(path).with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(data, indent=2, default=_json_default) + "\n")
+    os.replace(tmp, path)
+
+
+def _json_default(value):
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, Path):
+        return str(value)
+    raise TypeError(type(value))
+
+
+def copy_case(case_file, directory):
+    shutil.copyfile(case_file, Path(directory) / "case.toml")
+
+
+class FrameSeries:
+    """A time series of VTU files indexed by a PVD collection (ParaView reads the times)."""
+
+    def __init__(self, directory, stem):
+        self.directory, self.stem = Path(directory), stem
+        self.frames = []
+
+    def write(self, t, mesh):
+        name = f"{self.stem}_{len(self.frames):05d}.vtu"
+        meshio.vtu.write(str(self.directory / name), mesh, binary=True, compression="zlib")
+        self.frames.append((float(t), name))
+        # meshio has no .pvd writer: the collection is a few lines of XML.
+        rows = "\n".join(f'    <DataSet timestep="{t!r}" group="" part="0" file="{f}"/>'
+                         for t, f in self.frames)
+        text = ('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1" '
+                f'byte_order="LittleEndian">\n  <Collection>\n{rows}\n  </Collection>\n</VTKFile>\n')
+        tmp = self.directory / f"{self.stem}.pvd.tmp"
+        tmp.write_text(text)
+        os.replace(tmp, self.directory / f"{self.stem}.pvd")
+
+
+def triangle_frame(domain, cell_data):
+    """A meshio mesh of the domain's triangles with cell data (vectors padded to 3 components)."""
+    points = np.column_stack([domain.points, np.zeros(len(domain.points))])
+    data = {name: [np.column_stack([v, np.zeros(len(v))]) if v.ndim == 2 and v.shape[1] == 2 else v]
+            for name, v in cell_data.items()}
+    return meshio.Mesh(points, [("triangle", domain.triangles)], cell_data=data)
+
+
+class History:
+    """history.csv, one row per step, flushed so that an interrupted run keeps it."""
+
+    def __init__(self, path, columns):
+        self.columns = columns
+        self._file = open(path, "w", newline="")
+        self._writer = csv.writer(self._file)
+        self._writer.writerow(columns)
+
+    def append(self, row):
+        self._writer.writerow([_fmt(row[c]) for c in self.columns])
+        self._file.flush()
+
+    def close(self):
+        self._file.close()
+
+
+def _fmt(value):
+    return repr(float(value)) if isinstance(value, (float, np.floating)) else value

@@ -1,0 +1,84 @@
+"""Desired velocity U (design note, sec. 3).
+
+Two kinds, chosen by ``[velocity].type``:
+
+- ``field``: U = (ux, uy), expressions in x, y, t. The transport uses U . n at
+  facet midpoints (exact normal fluxes for a steady field up to quadrature);
+  no distance field is computed.
+- ``exits``: U = -v grad d / |grad d|, with d the shortest-path distance inside
+  the domain to the nearest exit (nodal, :func:`femcrowd.distance.exit_distance`)
+  and grad d the P1 gradient per triangle; facets use the mean of their two
+  cells. Where d is infinite (no path to any exit) or grad d vanishes, U = 0:
+  people who cannot reach an exit stay where they are (but are still pushed
+  by the pressure if their region is saturated).
+"""
+
+import numpy as np
+
+
+class FieldVelocity:
+    """U given by expressions ux(x, y, t), uy(x, y, t)."""
+
+    def __init__(self, domain, ux, uy):
+        self.domain, self.ux, self.uy = domain, ux, uy
+        self.steady = not (ux.depends_on_time or uy.depends_on_time)
+
+    def at_points(self, xy, t=0.0):
+        return np.column_stack([self.ux(xy[:, 0], xy[:, 1], t), self.uy(xy[:, 0], xy[:, 1], t)])
+
+    def at_cells(self, t=0.0):
+        return self.at_points(self.domain.centroid, t)
+
+    def normal_on_facets(self, t=0.0):
+        return np.einsum("ij,ij->i", self.at_points(self.domain.midpoint, t), self.domain.normal)
+
+
+class ExitsVelocity:
+    """U = -speed grad d/|grad d| from the distance d to the exits."""
+
+    steady = True
+
+    def __init__(self, domain, speed, distance=None):
+        from .distance import exit_distance
+
+        self.domain = domain
+        self.distance = exit_distance(domain.points, domain.triangles, domain.exit_edges()) \
+            if distance is None else distance
+        grad = _p1_gradient(domain, self.distance)
+        norm = np.hypot(grad[:, 0], grad[:, 1])
+        ok = np.isfinite(norm) & (norm > 0)
+        v = speed(domain.centroid[:, 0], domain.centroid[:, 1], 0.0)
+        self.cells = np.zeros((domain.ncells, 2))
+        self.cells[ok] = -(v[ok] / norm[ok])[:, None] * grad[ok]
+        self._finder = None
+
+    def at_cells(self, t=0.0):
+        return self.cells
+
+    def at_points(self, xy, t=0.0):
+        """U of the triangle containing each point (0 outside the mesh)."""
+        if self._finder is None:
+            self._finder = self.domain.mesh.element_finder()
+        cell = self._finder(xy[:, 0], xy[:, 1])
+        return np.where((cell >= 0)[:, None], self.cells[np.maximum(cell, 0)], 0.0)
+
+    def normal_on_facets(self, t=0.0):
+        k0, k1 = self.domain.f2t
+        U = np.where(self.domain.interior[:, None],
+                     0.5 * (self.cells[k0] + self.cells[np.maximum(k1, 0)]), self.cells[k0])
+        return np.einsum("ij,ij->i", U, self.domain.normal)
+
+
+def _p1_gradient(domain, d):
+    """Gradient per triangle of the P1 interpolant of nodal values d (inf where any node is inf)."""
+    p, t = domain.points, domain.triangles
+    e1, e2 = p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]
+    with np.errstate(invalid="ignore"):
+        d1, d2 = d[t[:, 1]] - d[t[:, 0]], d[t[:, 2]] - d[t[:, 0]]
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    gx = (d1 * e2[:, 1] - d2 * e1[:, 1]) / det
+    gy = (d2 * e1[:, 0] - d1 * e2[:, 0]) / det
+    bad = ~np.all(np.isfinite(d[t]), axis=1)
+    g = np.column_stack([gx, gy])
+    g[bad] = np.inf
+    return g
