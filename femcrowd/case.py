@@ -9,16 +9,20 @@ configuration (all defaults filled) is echoed into summary.json.
 
 import copy
 import difflib
+import inspect
 import math
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
 from .errors import InputError
+from .exact import SOLUTIONS
 from .expressions import Expression, ExpressionError
 
 REQUIRED = object()
 FIELDS = ("density", "pressure", "velocity")
+#: parameters of the exact solutions (femcrowd.exact), keys of the [exact] table
+EXACT_PARAMETERS = sorted({p for cls in SOLUTIONS.values() for p in inspect.signature(cls).parameters})
 
 
 @dataclass(frozen=True)
@@ -55,6 +59,10 @@ SCHEMA = {
     "micro": {"radius": Key(0.2, "radius"), "count": Key(None, "int", low=1),
               "seed": Key(1, "int"), "positions": Key(None, "str"),
               "method": Key("exact", "choice", ("exact", "uzawa"))},
+    "scheme": {"order": Key(0, "int", low=0, high=1)},
+    "exact": {"name": Key(None, "choice", tuple(SOLUTIONS)),
+              **{name: Key(None, "number") for name in EXACT_PARAMETERS}},
+    "convergence": {"meshes": Key([], "strlist"), "reference": Key(None, "str")},
 }
 
 

@@ -21,9 +21,12 @@ A floor plan, all lengths in metres; only ``[outer]`` is required::
 
 Exits split the edge they lie on. The mesh has one physical line group per
 exit name, "wall" for every other boundary curve (outer and holes) and the
-physical surface "domain". Triangles come from gmsh's Delaunay algorithm
-without smoothing, so that the circumcentre distances used by the two-point
-flux stay consistent.
+physical surface "domain". Triangles come from gmsh's Frontal-Delaunay
+algorithm with a few smoothing passes: nearly equilateral and Delaunay (the
+two angles opposite an interior edge sum to at most pi), so the circumcentre
+distances used by the two-point flux are positive. They are also almost all
+non-obtuse, which a uniform refinement needs to stay Delaunay (it copies each
+angle of a triangle to both sides of the inner edge facing it).
 """
 
 import difflib
@@ -304,8 +307,8 @@ def build_mesh(geometry_file, out=None, refine_exits=None) -> pathlib.Path:
             gmsh.model.mesh.field.setNumbers(smallest, "FieldsList", fields)
             gmsh.model.mesh.field.setAsBackgroundMesh(smallest)
         for option, value in [("Mesh.MeshSizeMax", size), ("Mesh.MeshSizeFromPoints", 0),
-                              ("Mesh.MeshSizeExtendFromBoundary", 0), ("Mesh.Algorithm", 5),
-                              ("Mesh.Smoothing", 0), ("Mesh.MshFileVersion", 2.2), ("Mesh.Binary", 0)]:
+                              ("Mesh.MeshSizeExtendFromBoundary", 0), ("Mesh.Algorithm", 6),
+                              ("Mesh.Smoothing", 5), ("Mesh.MshFileVersion", 2.2), ("Mesh.Binary", 0)]:
             gmsh.option.setNumber(option, value)
         gmsh.model.mesh.generate(2)
         out.parent.mkdir(parents=True, exist_ok=True)

@@ -13,14 +13,14 @@ from collections import defaultdict
 
 import numpy as np
 
-from .projection import Projection, velocity_correction
-from .transport import UpwindTransport
+from .projection import Projection, cell_mean, velocity_correction
+from .transport import UpwindTransport, exit_matrix
 
 SATURATED = 1.0 - 1e-9  # rho above this counts as saturated (the solver tolerance)
 
 
 class MacroSolver:
-    """State (t, rho, p, evacuated) and one catching-up step."""
+    """State (t, rho, p, evacuated, evacuated per exit group) and one catching-up step."""
 
     def __init__(self, domain, velocity, rho0, cfl=0.5, dt=None, projection=None):
         self.domain, self.velocity = domain, velocity
@@ -29,10 +29,11 @@ class MacroSolver:
         self.rho = np.array(rho0, float)
         self.p = np.zeros_like(self.rho)
         self.evacuated = 0.0
+        self.exit_names = list(domain.exit_group)
+        self.evacuated_by_exit = np.zeros(len(self.exit_names))
         self.initial_mass = self.mass
         self.projection = projection or Projection(domain)
-        self.exit_transmissibility = np.bincount(
-            domain.f2t[0][domain.exit], domain.transmissibility[domain.exit], domain.ncells)
+        self.exit_transmissibility = exit_matrix(domain, domain.transmissibility)  # outflow T_e phi_K
         self.transport = UpwindTransport(domain, velocity.normal_on_facets(0.0))
         self.timers = defaultdict(float)
 
@@ -41,8 +42,13 @@ class MacroSolver:
         return float(self.domain.area @ self.rho)
 
     def stable_dt(self):
-        """Largest step allowed: cfl * (CFL-1 step of the upwind scheme), or the fixed dt."""
-        return self.cfl * self.transport.max_dt if self.fixed_dt is None else self.fixed_dt
+        """Largest step allowed: cfl * (CFL-1 step of the upwind scheme), or the fixed dt.
+
+        A fixed dt is checked against the CFL limit at setup; it is still capped here
+        because a time-dependent U can lower the limit during the run, and beyond it
+        the upwind update has negative coefficients (negative densities, lost mass).
+        """
+        return self.cfl * self.transport.max_dt if self.fixed_dt is None else min(self.fixed_dt, self.transport.max_dt)
 
     def step(self, until=np.inf):
         """Advance by one step, not beyond time ``until``; return the step's diagnostics."""
@@ -56,11 +62,12 @@ class MacroSolver:
         rho_tilde, out_transport = self.transport.step(self.rho, dt)
         toc = time.perf_counter()
         self.rho, phi, info = self.projection(rho_tilde)
-        out_pressure = float(self.exit_transmissibility @ phi)
+        out = out_transport + self.exit_transmissibility @ phi  # per exit group
         self.timers["transport"] += toc - tic
         self.timers["projection"] += time.perf_counter() - toc
         self.p = phi / dt
-        self.evacuated += out_transport + out_pressure
+        self.evacuated_by_exit += out
+        self.evacuated += float(out.sum())
         self.t = t_new
         self.step_count += 1
         return {"dt": dt, "active_set_iterations": info["iterations"],
@@ -68,8 +75,12 @@ class MacroSolver:
                 "step_seconds": time.perf_counter() - tic}
 
     def velocity_field(self):
-        """Actual velocity u = U - grad p per cell."""
-        return self.velocity.at_cells(self.t) + velocity_correction(self.domain, self.p)
+        """Actual velocity u = U - grad p per cell: the RT0 cell mean of the scheme's facet fluxes,
+        |e| U.n (none through walls) plus the pressure fluxes. Hence u.n = 0 on walls and u = 0
+        where nothing moves (a closed saturated room); U(centroid) - grad p is O(1) wrong there
+        in the cells along the walls, whose U.n the scheme never transports."""
+        flux = np.where(self.domain.wall, 0.0, self.velocity.normal_on_facets(self.t)) * self.domain.length
+        return cell_mean(self.domain, *flux) + velocity_correction(self.domain, self.p)
 
     def diagnostics(self):
         """Invariants of the design note for the current state (scaled units)."""

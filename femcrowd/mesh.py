@@ -9,13 +9,18 @@ transmissibilities T_e = |e| / d_e of the pressure Laplacian (design note,
 a wall; holes in the mesh are obstacles.
 """
 
+import contextlib
+import dataclasses
 import difflib
 import hashlib
+import logging
 from pathlib import Path
 
+import meshio
 import numpy as np
 import scipy.sparse as sp
 import skfem
+import skfem.io.meshio
 
 from .errors import InputError
 
@@ -68,6 +73,20 @@ class Domain:
         """Largest facet length (the mesh size of convergence studies)."""
         return float(self.length.max())
 
+    def cell_average(self, f, divisions=4, t=0.0):
+        """Mean of f(x, y, t) over each cell: midpoint rule on the divisions^2 congruent
+        sub-triangles (robust for the discontinuous data of crowd scenes)."""
+        lam = []
+        for i in range(divisions):
+            for j in range(divisions - i):
+                lam.append(((i + 1 / 3) / divisions, (j + 1 / 3) / divisions))      # upward
+                if i + j < divisions - 1:
+                    lam.append(((i + 2 / 3) / divisions, (j + 2 / 3) / divisions))  # downward
+        lam = np.array(lam)
+        a, b, c = (self.points[self.triangles[:, k]] for k in range(3))
+        pts = a[:, None] + lam[None, :, :1] * (b - a)[:, None] + lam[None, :, 1:] * (c - a)[:, None]
+        return f(pts[..., 0], pts[..., 1], t).mean(axis=1)
+
     def exit_edges(self):
         """Node pairs (E, 2) of the exit facets."""
         return self.mesh.facets[:, self.exit].T
@@ -115,6 +134,9 @@ class Domain:
 
     def statistics(self):
         """Mesh statistics for summary.json and `femcrowd info`."""
+        x = self.points[self.triangles]
+        u, v = np.roll(x, -1, axis=1) - x, np.roll(x, 1, axis=1) - x  # the two edges at each corner
+        angles = np.arctan2(np.abs(u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]), (u * v).sum(-1))
         groups = {name: float(self.length[np.asarray(f)].sum())
                   for name, f in (self.mesh.boundaries or {}).items()
                   if not name.startswith("gmsh:")}
@@ -122,6 +144,7 @@ class Domain:
             "nodes": int(self.mesh.nvertices), "triangles": self.ncells,
             "h_max": self.h, "h_min": float(self.length.min()),
             "area": float(self.area.sum()), "min_cell_area": float(self.area.min()),
+            "min_angle_deg": float(np.degrees(angles.min())), "max_angle_deg": float(np.degrees(angles.max())),
             "boundary_groups": groups, "exit_length": float(self.length[self.exit].sum()),
             "non_delaunay_pairs": self.non_delaunay, "clipped_transmissibilities": self.clipped,
         }
@@ -141,16 +164,7 @@ def load_domain(file, exits=(), refine=0, case_file="case.toml"):
     path = Path(file)
     if not path.is_file():
         raise InputError(case_file, "mesh.file", str(file), "mesh file not found")
-    try:
-        mesh = skfem.MeshTri.load(str(path))
-    except Exception as err:  # meshio/skfem raise many types for malformed files
-        message = str(err).splitlines()[0] if str(err) else type(err).__name__
-        raise InputError(case_file, "mesh.file", str(file),
-                         f"cannot read a triangle mesh: {message}") from None
-    if mesh.t.shape[1] == 0:
-        raise InputError(case_file, "mesh.file", str(file), "the mesh has no triangles")
-    if not np.all(np.isfinite(mesh.p)):
-        raise InputError(case_file, "mesh.file", str(file), "the mesh has non-finite node coordinates")
+    mesh = _read_triangles(path, case_file)
     names = [n for n in (mesh.boundaries or {}) if not n.startswith("gmsh:")]
     for name in exits:
         if name not in names:
@@ -165,10 +179,65 @@ def load_domain(file, exits=(), refine=0, case_file="case.toml"):
                              f"group {name!r} in {path.name} contains interior edges, "
                              "not boundary edges")
     mesh = mesh.refined(int(refine)) if refine else mesh
-    domain = Domain(mesh, exits, source=path)
-    if np.any(domain.area <= 0):
-        raise InputError(case_file, "mesh.file", str(file), "the mesh has degenerate (zero-area) triangles")
-    return domain
+    return Domain(mesh, exits, source=path)
+
+
+#: meshio cell types of volume meshes (refused: femcrowd needs a planar triangle mesh)
+_SOLID = {"tetra", "hexahedron", "wedge", "pyramid", "tetra10", "hexahedron20", "hexahedron27"}
+
+
+def _read_triangles(path, case_file):
+    """Read a gmsh .msh with meshio and check it is a planar, triangle-only, finite, non-degenerate mesh.
+
+    meshio.gmsh.read is called directly: meshio.read prints to stdout and calls
+    sys.exit when no reader accepts a file. skfem's reader would silently drop z
+    (a 3D surface), pick quads or tetrahedra, or crash on a mesh of lines only.
+    """
+    def fail(message):
+        raise InputError(case_file, "mesh.file", str(path), message)
+
+    try:
+        data = meshio.gmsh.read(str(path))
+    except Exception as err:  # meshio raises many types for malformed files
+        message = str(err).splitlines()[0] if str(err).strip() else type(err).__name__
+        fail(f"cannot read a gmsh .msh (2.2 or 4.1) file: {message}")
+    kinds = {c.type for c in data.cells if len(c.data)}
+    if kinds & _SOLID:
+        fail(f"this is a 3D mesh ({', '.join(sorted(kinds & _SOLID))} cells); femcrowd needs a 2D triangle mesh")
+    if "triangle" not in kinds:
+        fail("the mesh has no triangles" + (f" (only {', '.join(sorted(kinds))} cells)" if kinds else " (no cells)"))
+    if kinds - {"triangle", "line", "vertex"}:
+        fail(f"the mesh has {', '.join(sorted(kinds - {'triangle', 'line', 'vertex'}))} cells; "
+             "femcrowd needs a mesh of linear triangles only")
+    points = data.points
+    if not np.all(np.isfinite(points)):
+        fail("the mesh has non-finite node coordinates")
+    extent = float(np.ptp(points[:, :2], axis=0).max())
+    if points.shape[1] > 2 and np.ptp(points[:, 2]) > 1e-12 * extent:
+        fail("the mesh is not planar (z varies); femcrowd needs a 2D mesh")
+    with _quiet("skfem"):  # skfem logs a warning for tag layouts it does not parse
+        mesh = skfem.io.meshio.from_meshio(data, force_meshio_type="triangle")
+    # physical tags without a $PhysicalNames entry come back under the name None
+    named = {k: v for k, v in (mesh.boundaries or {}).items() if isinstance(k, str)}
+    if len(named) != len(mesh.boundaries or {}):
+        mesh = dataclasses.replace(mesh, _boundaries=named)
+    x = mesh.p[:, mesh.t]
+    twice_area = np.abs((x[0, 1] - x[0, 0]) * (x[1, 2] - x[1, 0]) - (x[0, 2] - x[0, 0]) * (x[1, 1] - x[1, 0]))
+    if np.any(twice_area <= 1e-14 * extent ** 2):  # zero up to the round-off of the coordinates
+        fail(f"the mesh has {np.count_nonzero(twice_area <= 1e-14 * extent ** 2)} degenerate (zero-area) triangles")
+    return mesh
+
+
+@contextlib.contextmanager
+def _quiet(logger_name):
+    """Silence a library logger below ERROR for the duration of a block."""
+    logger = logging.getLogger(logger_name)
+    level = logger.level
+    logger.setLevel(logging.ERROR)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
 
 
 def file_checksum(path):

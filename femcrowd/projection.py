@@ -9,11 +9,25 @@ and M_L the cell areas; then |K| rho_K = |K| rho~_K - (A phi)_K, i.e.
 rho = 1 - w / |K|. The linear complementarity problem is solved exactly by
 primal-dual active-set iterations (Hintermueller, Ito, Kunisch 2003): on the
 saturated set S solve A_SS phi_S = -b_S, set phi = 0 elsewhere, then
-S <- {phi > 0} U {w < 0}; for an M-matrix this terminates in finitely many
-steps. S is warm-started from the previous step, so 1-3 iterations suffice.
-Only rows of S and their neighbours are touched; when no cell exceeds 1 the
-solution is phi = 0 and nothing is solved.
+S <- {phi >= 0 on S} U {w < 0 off S}; for an M-matrix this terminates in
+finitely many steps. S is warm-started from the previous step, so 1-3
+iterations suffice.
+
+Cost (docs/performance.md): all work after the O(n) test rho~ > 1 is restricted
+to S and its neighbour layer L (index arrays, persistent scratch vectors, no
+full-length temporaries). Systems up to ``direct_max`` unknowns are factorised
+(SuperLU), larger ones are solved by conjugate gradients preconditioned with a
+Ruge-Stuben AMG V-cycle. The factorisation or hierarchy is kept between
+iterations and steps: while S is unchanged it is used as is, and when S has
+changed by a few cells it still preconditions CG on the new A_SS (embedded on
+the common cells, Jacobi on the new ones, so the preconditioner stays SPD); it
+is rebuilt when it stops paying off. Initial guesses come from the previous
+phi. Iterative solves stop when every cell's density is within ``tol`` of its
+target (|r_K| <= tol |K|) or at the round-off level of A phi, so the bound
+rho <= 1 + tol holds whatever the conditioning.
 """
+
+import time
 
 import numpy as np
 import pyamg
@@ -21,53 +35,115 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import splu
 
+#: a kept solver is rebuilt when more than this fraction of its unknowns changed
+REUSE_FRACTION = 0.2
+#: ... or when preconditioned CG needed more than this many times the iterations it took when fresh (+ 4)
+REUSE_SLOWDOWN = 1.5
+#: round-off of (A phi)_K in units of eps * A_KK * max|phi| (floor of the iterative stopping test)
+ROUNDOFF = 64 * np.finfo(float).eps
+
 
 class ProjectionError(RuntimeError):
     """The active-set iteration did not terminate (it always does for an M-matrix)."""
 
 
 class Projection:
-    """Exact LCP projection with warm-started active sets."""
+    """Exact LCP projection with warm-started active sets and reused linear solvers."""
 
-    def __init__(self, domain, direct_max=50_000, tol=1e-12, max_iterations=100):
+    def __init__(self, domain, direct_max=50_000, tol=1e-12, max_iterations=100, reuse=True):
         self.A = domain.laplacian()
+        self.A.sort_indices()
         self.area = domain.area
         self.has_exit = np.bincount(domain.f2t[0][domain.exit], minlength=domain.ncells) > 0
         self.direct_max = direct_max
         self.tol = tol
         self.max_iterations = max_iterations
-        self.active = np.zeros(domain.ncells, bool)
+        self.reuse = reuse
+        self.active = np.zeros(0, np.intp)      # S of the last call (sorted cells): the warm start
+        self.phi_active = np.zeros(0)           # phi on it: the initial guess of the next solve
+        self.solver = None                      # the kept _Solver
+        n = domain.ncells
+        self._mark = np.zeros(n, bool)          # scratch, all False between uses
+        self._position = np.zeros(n, np.intp)   # scratch: position of a cell in the current local set
+        self._scratch = np.zeros(n)             # scratch, all 0 between uses
 
     def __call__(self, rho_tilde):
-        """Return (rho, phi, info) for one correction step."""
+        """Return (rho, phi, info) for one correction step.
+
+        info: iterations (active-set), linear_residual (max |r_K| / |K| of the linear
+        solves), unknowns (|S|), linear_iterations (CG, 0 for exact solves),
+        rebuilds (factorisations / AMG set-ups), and seconds spent in detect (rho~ > 1),
+        setup, solve and active_set (everything else).
+        """
+        clock = _Clock()
         b = self.area * (1.0 - rho_tilde)
-        phi = np.zeros_like(b)
-        over = b < 0
-        if not over.any():
-            self.active[:] = False
-            return rho_tilde.copy(), phi, {"iterations": 0, "linear_residual": 0.0, "unknowns": 0}
-        active = over | self.active
-        residual = 0.0
+        over = np.flatnonzero(b < 0)
+        info = {"iterations": 0, "linear_residual": 0.0, "unknowns": 0, "linear_iterations": 0,
+                "rebuilds": 0, "setup": 0.0, "solve": 0.0}
+        if not over.size:
+            self.active, self.phi_active = np.zeros(0, np.intp), np.zeros(0)
+            info.update(detect=clock.lap(), active_set=0.0)
+            return rho_tilde.copy(), np.zeros_like(b), info
+        # cells that enter S wherever they are (w = b off the neighbourhood of S)
+        strict = over[b[over] < -self.tol * self.area[over]]
+        S = np.union1d(over, self.active)
+        x0 = self._carry(self.active, self.phi_active, S)
+        info["detect"] = clock.lap()
         for iteration in range(1, self.max_iterations + 1):
-            idx = np.flatnonzero(active)
-            rows = self.A[idx]
-            phi[:] = 0.0
-            phi[idx], res = self._solve(rows, idx, active, -b[idx])
-            residual = max(residual, res)
-            # w = b + A phi; A is symmetric, so A phi = rows^T phi_S touches only S and its neighbours
-            w = b + rows.T @ phi[idx]
-            new = np.where(active, phi > 0, w < -self.tol * self.area)
-            if np.array_equal(new, active):
+            rows = self.A[S]
+            L, col, in_S, s_in_L = self._neighbourhood(rows, S)
+            phi_S = self._solve(rows, S, col, in_S, -b[S], x0, info)
+            # w = b + A phi on L (A symmetric: (A phi)_j = sum_{i in S} A_ij phi_i); w = b elsewhere
+            Aphi = np.bincount(col, rows.data * np.repeat(phi_S, np.diff(rows.indptr)), len(L))
+            w = b[L] + Aphi
+            phi_L = np.zeros(len(L))
+            phi_L[s_in_L] = phi_S
+            # A cell of S with phi = 0 (and w = 0) solves the LCP whether it is in S or not; it
+            # stays in S. Dropping it makes a closed saturated room cycle: its gauge cell has
+            # phi = 0 exactly, leaves S, and re-enters on a round-off w < 0 the next iteration.
+            stay = np.where(in_S, phi_L >= 0, w < -self.tol * self.area[L])
+            self._mark[L] = True
+            far = strict[~self._mark[strict]]
+            self._mark[L] = False
+            new = np.union1d(L[stay], far) if far.size else L[stay]
+            if np.array_equal(new, S):
                 break
-            active = new
+            x0 = self._carry(S, phi_S, new)
+            S = new
         else:
             raise ProjectionError(f"active-set iterations did not terminate in {self.max_iterations}")
-        self.active = active
-        rho = rho_tilde - (rows.T @ phi[idx]) / self.area
-        return rho, phi, {"iterations": iteration, "linear_residual": residual, "unknowns": len(idx)}
+        self.active, self.phi_active = S, phi_S
+        phi = np.zeros_like(b)
+        phi[S] = phi_S
+        rho = rho_tilde.copy()
+        rho[L] -= Aphi / self.area[L]  # flux form: mass moves between cells or leaves by the exits
+        info.update(iterations=iteration, unknowns=len(S))
+        info["active_set"] = clock.lap() - info["setup"] - info["solve"]
+        return rho, phi, info
 
-    def _solve(self, rows, idx, active, rhs):
-        """Solve A_SS phi_S = rhs; returns (phi_S, relative residual).
+    def _carry(self, cells, values, new_cells):
+        """values on `cells` moved to `new_cells` (0 on cells that are new): the initial guess."""
+        self._scratch[cells] = values
+        out = self._scratch[new_cells]
+        self._scratch[cells] = 0.0
+        return out
+
+    def _neighbourhood(self, rows, S):
+        """L = S and its neighbours (sorted), the position in L of every entry of rows, S as a mask on L,
+        and the positions of S in L."""
+        self._mark[rows.indices] = True
+        self._mark[S] = True
+        L = np.flatnonzero(self._mark)
+        self._mark[L] = False
+        self._position[L] = np.arange(len(L))
+        col = self._position[rows.indices]
+        s_in_L = self._position[S]
+        in_S = np.zeros(len(L), bool)
+        in_S[s_in_L] = True
+        return L, col, in_S, s_in_L
+
+    def _solve(self, rows, S, col, in_S, rhs, x0, info):
+        """Solve A_SS phi_S = rhs.
 
         A connected component of S with no exit facet and no neighbour outside S
         is a closed, fully saturated room: A is singular there (pure Neumann) and
@@ -76,32 +152,178 @@ class Projection:
         (the gauge of the design note); the incompatibility of the data, pure
         round-off since the mass fits, lands in the pinned cell.
         """
-        A_SS = rows[:, idx]
-        coupled = self.has_exit[idx] | ((abs(rows) @ (~active).astype(float)) > 0)
+        m = len(S)
+        length = np.diff(rows.indptr)
+        inside = in_S[col]
+        row = np.repeat(np.arange(m), length)
+        count = np.bincount(row[inside], minlength=m)
+        A_SS = sp.csr_matrix((rows.data[inside], (np.cumsum(in_S) - 1)[col[inside]],
+                              np.concatenate([[0], np.cumsum(count)])), shape=(m, m))
+        coupled = self.has_exit[S] | (count < length)
         ncomp, label = connected_components(A_SS, directed=False)
         floating = np.bincount(label, coupled, ncomp) == 0
-        keep = np.ones(len(idx), bool)
+        keep = np.ones(m, bool)
         if floating.any():
-            pinned = np.unique(label[floating[label]], return_index=True)[1]
-            keep[pinned] = False
+            keep[np.unique(label[floating[label]], return_index=True)[1]] = False
         K = A_SS[keep][:, keep] if not keep.all() else A_SS
-        x = np.zeros(len(idx))
+        x = np.zeros(m)
         if K.shape[0] > 0:
-            x[keep] = self._linear_solve(K.tocsr(), rhs[keep])
+            x[keep] = self._linear_solve(K, S[keep], rhs[keep], x0[keep], info)
         if floating.any():
             lowest = np.full(ncomp, np.inf)
             np.minimum.at(lowest, label, x)
             x -= np.where(floating[label], lowest[label], 0.0)
-        r = A_SS @ x - rhs
-        scale = np.linalg.norm(rhs[keep]) or 1.0
-        return x, float(np.linalg.norm(r[keep]) / scale)
+        r = (A_SS @ x - rhs)[keep]
+        info["linear_residual"] = max(info["linear_residual"], float(np.max(np.abs(r) / self.area[S[keep]])))
+        return x
 
-    def _linear_solve(self, K, rhs):
-        """Sparse direct for small systems, Ruge-Stuben AMG + CG for large ones."""
-        if K.shape[0] <= self.direct_max:
-            return splu(K.tocsc(), permc_spec="MMD_AT_PLUS_A").solve(rhs)
-        ml = pyamg.ruge_stuben_solver(K)
-        return ml.solve(rhs, tol=self.tol, accel="cg", maxiter=500)
+    def _linear_solve(self, K, cells, rhs, x0, info):
+        """K x = rhs on `cells`, reusing the kept solver when it still fits (see the module docstring)."""
+        clock = _Clock()
+        direct = K.shape[0] <= self.direct_max
+        solver = self.solver if self.reuse else None
+        if solver is not None and solver.direct == direct:
+            common = solver.common(cells)
+            if solver.direct and common.exact:
+                x = solver.solve(rhs)
+                info["solve"] += clock.lap()
+                return x
+            if len(cells) - common.count + len(solver.cells) - common.count <= REUSE_FRACTION * len(cells):
+                # a factorisation is reused as an (almost exact) preconditioner: iterate to round-off
+                tol = 0.0 if direct else self.tol
+                x, its, ok = pcg(K, rhs, x0, solver.preconditioner(common, K), self._threshold(K, cells, tol),
+                                 maxiter=500)
+                info["solve"] += clock.lap()
+                info["linear_iterations"] += its
+                if its > solver.iterations * REUSE_SLOWDOWN + 4:
+                    self.solver = None  # no longer pays off: rebuild at the next solve
+                if ok:
+                    return x
+                x0 = x
+        solver = self.solver = _Solver(K, cells, direct)
+        info["rebuilds"] += 1
+        info["setup"] += clock.lap()
+        if direct:
+            x, its = solver.solve(rhs), 0
+        else:
+            x, its, ok = pcg(K, rhs, x0, solver.preconditioner(solver.common(cells), K),
+                             self._threshold(K, cells, self.tol), maxiter=500)
+            solver.iterations = its
+        info["solve"] += clock.lap()
+        info["linear_iterations"] += its
+        return x
+
+    def _threshold(self, K, cells, tol):
+        """Per-row stopping test of CG: |r_K| <= tol |K|, or the round-off of (K x)_K."""
+        area, floor = tol * self.area[cells], ROUNDOFF * K.diagonal()
+        return lambda x: np.maximum(area, floor * max(float(np.abs(x).max()), 1e-300))
+
+
+class _Common:
+    """Cells shared by a kept solver and a new system: positions in both."""
+
+    def __init__(self, new_positions, ref_positions, exact):
+        self.new, self.ref, self.exact = new_positions, ref_positions, exact
+        self.count = len(new_positions)
+
+
+class _Solver:
+    """A SuperLU factorisation or a Ruge-Stuben hierarchy of K on `cells` (sorted)."""
+
+    def __init__(self, K, cells, direct):
+        self.cells, self.direct, self.iterations = cells, direct, 0
+        if direct:
+            # K is a symmetric M-matrix (positive definite), so SuperLU runs in symmetric mode
+            # without pivoting: the minimum-degree ordering of K + K^T is then kept, which is
+            # 10-20x faster than the default threshold pivoting on these Laplacians.
+            self.lu = splu(K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                           options={"SymmetricMode": True})
+        else:
+            self.ml = pyamg.ruge_stuben_solver(K)
+
+    def solve(self, r):
+        return self.lu.solve(r) if self.direct else vcycle(self.ml, r)
+
+    def common(self, cells):
+        if len(cells) == len(self.cells) and np.array_equal(cells, self.cells):
+            everything = np.arange(len(cells))
+            return _Common(everything, everything, True)
+        pos = np.minimum(np.searchsorted(self.cells, cells), len(self.cells) - 1)
+        hit = self.cells[pos] == cells
+        return _Common(np.flatnonzero(hit), pos[hit], False)
+
+    def preconditioner(self, common, K):
+        """z = E^T M E r + D^-1 r on the cells the solver does not know (SPD for an SPD M)."""
+        if common.exact:
+            return self.solve
+        inverse_diagonal = 1.0 / K.diagonal()
+        size = len(self.cells)
+
+        def apply(r):
+            z = inverse_diagonal * r
+            embedded = np.zeros(size)
+            embedded[common.ref] = r[common.new]
+            z[common.new] = self.solve(embedded)[common.ref]
+            return z
+        return apply
+
+
+def vcycle(ml, b, level=0):
+    """One V-cycle of a pyamg hierarchy from x = 0 (what ml.aspreconditioner() applies, without the
+    residual norms that pyamg computes with multithreaded BLAS: on a loaded 2-core machine those
+    dot products alone made CG 10x slower)."""
+    lev = ml.levels[level]
+    if level == len(ml.levels) - 1:
+        return ml.coarse_solver(lev.A, b)
+    x = np.zeros_like(b)
+    lev.presmoother(lev.A, x, b)
+    x += lev.P @ vcycle(ml, lev.R @ (b - lev.A @ x), level + 1)
+    lev.postsmoother(lev.A, x, b)
+    return x
+
+
+def pcg(K, rhs, x0, precondition, threshold, maxiter):
+    """Preconditioned conjugate gradients for the SPD K from x0, until |r_i| <= threshold(x)_i for every i.
+
+    Returns (x, iterations, converged). Dot products use einsum (no BLAS threads).
+    """
+    x = np.array(x0, float)
+    r = rhs - K @ x
+    if np.all(np.abs(r) <= threshold(x)):
+        return x, 0, True
+    z = precondition(r)
+    p = z.copy()
+    rz = _dot(r, z)
+    for iteration in range(1, maxiter + 1):
+        q = K @ p
+        alpha = rz / _dot(p, q)
+        x += alpha * p
+        r -= alpha * q
+        if np.all(np.abs(r) <= threshold(x)):
+            r = rhs - K @ x  # the recurred residual drifts: confirm with the true one
+            if np.all(np.abs(r) <= threshold(x)):
+                return x, iteration, True
+        z = precondition(r)
+        rz, rz_old = _dot(r, z), rz
+        p *= rz / rz_old
+        p += z
+    return x, maxiter, False
+
+
+def _dot(a, b):
+    return float(np.einsum("i,i->", a, b))
+
+
+class _Clock:
+    """Seconds since the last lap."""
+
+    def __init__(self):
+        self.last = time.perf_counter()
+
+    def lap(self):
+        now = time.perf_counter()
+        elapsed, self.last = now - self.last, now
+        return elapsed
 
 
 def velocity_correction(domain, p):
@@ -113,10 +335,18 @@ def velocity_correction(domain, p):
     k0, k1 = domain.f2t
     inner = domain.interior
     p_far = np.where(inner, p[np.where(inner, k1, 0)], 0.0)
-    G = domain.transmissibility * (p[k0] - p_far)
+    return cell_mean(domain, domain.transmissibility * (p[k0] - p_far))
+
+
+def cell_mean(domain, G, G1=None):
+    """Cell means (1/|K|) sum_e G_e (m_e - g_K) of the RT0 field with facet fluxes G (oriented k0 -> k1);
+    G1, if given, is the flux seen from the cells f2t[1] (for a field that is discontinuous across facets)."""
+    k0, k1 = domain.f2t
+    inner = domain.interior
+    G1 = G if G1 is None else G1
     out = np.zeros((domain.ncells, 2))
     for c in range(2):
         out[:, c] = np.bincount(k0, G * (domain.midpoint[:, c] - domain.centroid[k0, c]), domain.ncells)
-        out[:, c] -= np.bincount(k1[inner], G[inner] * (domain.midpoint[inner, c]
+        out[:, c] -= np.bincount(k1[inner], G1[inner] * (domain.midpoint[inner, c]
                                                         - domain.centroid[k1[inner], c]), domain.ncells)
     return out / domain.area[:, None]

@@ -22,8 +22,6 @@ from .velocity import ExitsVelocity, FieldVelocity
 HISTORY_COLUMNS = ["time", "dt", "mass", "evacuated", "max_density", "saturated_area",
                    "max_pressure", "active_set_iterations", "step_seconds",
                    "min_density", "min_pressure", "complementarity", "linear_residual"]
-#: sub-triangles per edge for the cell averages of the initial density
-AVERAGING_DIVISIONS = 4
 
 
 class Scene:
@@ -49,6 +47,10 @@ def setup_macro(case):
     projection = Projection(domain, case["projection"]["direct_max"], case["projection"]["tol"])
     solver = MacroSolver(domain, velocity, rho0, case["time"]["cfl"], case["time"]["dt"], projection)
     timing["assembly"] = time.perf_counter() - tic
+    if case["time"]["dt"] is not None and case["time"]["dt"] > solver.transport.max_dt:
+        raise InputError(case.file, "time.dt", case["time"]["dt"],
+                         f"exceeds the CFL limit {solver.transport.max_dt:.3g} s of the upwind transport, "
+                         "above which densities can become negative (use a smaller dt, or time.cfl <= 1)")
     return Scene(case, domain, velocity, solver, timing)
 
 
@@ -78,15 +80,12 @@ def _checked(expr, xy, case, section, key):
 
 
 def initial_density(case, domain):
-    """Cell averages of the initial density (midpoint rule on 16 sub-triangles per cell), scaled by rho_max."""
+    """Cell averages of the initial density, scaled by rho_max."""
     rho_max = case["model"]["rho_max"]
-    expr = Expression(case["initial"]["density"])
-    x, y = _subtriangle_centroids(domain, AVERAGING_DIVISIONS)
-    values = expr(x, y, 0.0)
-    if not np.all(np.isfinite(values)):
+    density = domain.cell_average(Expression(case["initial"]["density"]))
+    if not np.all(np.isfinite(density)):
         raise InputError(case.file, "initial.density", case["initial"]["density"],
                          "gives non-finite values on the mesh")
-    density = values.mean(axis=1)
     subdomains = domain.mesh.subdomains or {}
     for name, value in case["initial"]["regions"].items():
         if name not in subdomains:
@@ -99,21 +98,6 @@ def initial_density(case, domain):
         raise InputError(case.file, "initial.density", case["initial"]["density"],
                          f"density {bad:g} is outside [0, rho_max = {rho_max:g}]")
     return np.minimum(density / rho_max, 1.0)
-
-
-def _subtriangle_centroids(domain, n):
-    """Centroids of the n^2 congruent sub-triangles of every cell, shape (M, n^2) each."""
-    bary = []
-    for i in range(n):
-        for j in range(n - i):
-            bary.append(((i + 1 / 3) / n, (j + 1 / 3) / n))          # upward sub-triangles
-            if i + j < n - 1:
-                bary.append(((i + 2 / 3) / n, (j + 2 / 3) / n))      # downward ones
-    lam = np.array(bary)
-    p, t = domain.points, domain.triangles
-    a, b, c = p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
-    pts = a[:, None, :] + lam[None, :, 0, None] * (b - a)[:, None, :] + lam[None, :, 1, None] * (c - a)[:, None, :]
-    return pts[..., 0], pts[..., 1]
 
 
 def frame_fields(scene):
@@ -137,7 +121,8 @@ def run_macro(case, out=None, force=False, quiet=False):
     copy_case(case.file, out_dir)
     solver, domain, rho_max = scene.solver, scene.domain, case["model"]["rho_max"]
     frames = FrameSeries(out_dir, "solution")
-    history = History(out_dir / "history.csv", HISTORY_COLUMNS)
+    history = History(out_dir / "history.csv",
+                      HISTORY_COLUMNS + [f"evacuated_{name}" for name in solver.exit_names])
     end, every = case["time"]["end"], case["output"]["every"]
     stop_mass = case["time"]["empty_fraction"] * solver.initial_mass
     can_empty = case["time"]["stop_when_empty"] and domain.exit.any()
@@ -200,7 +185,7 @@ class Record:
         self.extremes = {"min_density": d["min_density"], "max_density": d["max_density"],
                          "min_pressure": 0.0, "max_pressure": 0.0, "max_complementarity": 0.0,
                          "max_pressure_unsaturated": 0.0, "max_linear_residual": 0.0,
-                         "max_mass_error": 0.0, "max_active_set_iterations": 0}
+                         "max_mass_error": 0.0, "max_active_set_iterations": 0, "non_finite": 0}
         self.iterations, self.steps, self.evacuation_time = [], 0, None
 
     def add(self, solver, info):
@@ -214,6 +199,8 @@ class Record:
         e["max_pressure_unsaturated"] = max(e["max_pressure_unsaturated"], d["pressure_unsaturated"])
         e["max_linear_residual"] = max(e["max_linear_residual"], info["linear_residual"])
         e["max_active_set_iterations"] = max(e["max_active_set_iterations"], info["active_set_iterations"])
+        # NaN/inf would be invisible in the min/max above (comparisons with NaN are False): count them
+        e["non_finite"] += int(np.count_nonzero(~np.isfinite(solver.rho)) + np.count_nonzero(~np.isfinite(solver.p)))
         error = abs(d["mass"] + d["evacuated"] - self.initial_mass) / max(self.initial_mass, 1e-300)
         e["max_mass_error"] = max(e["max_mass_error"], error)
         if (self.evacuation_time is None and self.empty_fraction is not None
@@ -223,7 +210,8 @@ class Record:
             self.iterations.append(info["active_set_iterations"])
         self.steps += 1
         r = self.rho_max
-        return {"time": solver.t, "dt": info["dt"], "mass": d["mass"] * r, "evacuated": d["evacuated"] * r,
+        by_exit = {f"evacuated_{name}": float(v) * r for name, v in zip(solver.exit_names, solver.evacuated_by_exit)}
+        return {**by_exit, "time": solver.t, "dt": info["dt"], "mass": d["mass"] * r, "evacuated": d["evacuated"] * r,
                 "max_density": d["max_density"] * r, "saturated_area": d["saturated_area"],
                 "max_pressure": d["max_pressure"], "active_set_iterations": info["active_set_iterations"],
                 "step_seconds": info["step_seconds"], "min_density": d["min_density"] * r,
@@ -237,6 +225,7 @@ class Record:
             "steps": self.steps, "final_time": solver.t,
             "initial_mass": self.initial_mass * r, "final_mass": solver.mass * r,
             "evacuated": solver.evacuated * r,
+            "evacuated_by_exit": {name: float(v) * r for name, v in zip(solver.exit_names, solver.evacuated_by_exit)},
             "mass_error": abs(solver.mass + solver.evacuated - self.initial_mass) / max(self.initial_mass, 1e-300),
             "max_mass_error": e["max_mass_error"],
             "min_density_ever": e["min_density"] * r, "max_density_ever": e["max_density"] * r,
@@ -249,4 +238,5 @@ class Record:
                 "max": e["max_active_set_iterations"], "steps_with_projection": len(self.iterations)},
             "remaining_fraction": remaining,
             "evacuation_time": self.evacuation_time,
+            "non_finite_values": e["non_finite"],
         }

@@ -7,8 +7,8 @@ Two kinds, chosen by ``[velocity].type``:
   no distance field is computed.
 - ``exits``: U = -v grad d / |grad d|, with d the shortest-path distance inside
   the domain to the nearest exit (nodal, :func:`femcrowd.distance.exit_distance`)
-  and grad d the P1 gradient per triangle; facets use the mean of their two
-  cells. Where d is infinite (no path to any exit) or grad d vanishes, U = 0:
+  and grad d the P1 gradient per triangle; each facet has the normal velocity
+  of each of its two cells (flux splitting, see transport.py). Where d is infinite (no path to any exit) or grad d vanishes, U = 0:
   people who cannot reach an exit stay where they are (but are still pushed
   by the pressure if their region is saturated).
 """
@@ -30,7 +30,9 @@ class FieldVelocity:
         return self.at_points(self.domain.centroid, t)
 
     def normal_on_facets(self, t=0.0):
-        return np.einsum("ij,ij->i", self.at_points(self.domain.midpoint, t), self.domain.normal)
+        """(2, F): U(m_e) . n_e, the same seen from both cells of the facet."""
+        a = np.einsum("ij,ij->i", self.at_points(self.domain.midpoint, t), self.domain.normal)
+        return np.stack([a, a])
 
 
 class ExitsVelocity:
@@ -63,10 +65,10 @@ class ExitsVelocity:
         return np.where((cell >= 0)[:, None], self.cells[np.maximum(cell, 0)], 0.0)
 
     def normal_on_facets(self, t=0.0):
+        """(2, F): U_K . n_e for K = f2t[0] and K = f2t[1] (f2t[0] again on the boundary)."""
         k0, k1 = self.domain.f2t
-        U = np.where(self.domain.interior[:, None],
-                     0.5 * (self.cells[k0] + self.cells[np.maximum(k1, 0)]), self.cells[k0])
-        return np.einsum("ij,ij->i", U, self.domain.normal)
+        n = self.domain.normal
+        return np.stack([np.einsum("ij,ij->i", self.cells[k], n) for k in (k0, np.where(k1 >= 0, k1, k0))])
 
 
 def _p1_gradient(domain, d):

@@ -1,0 +1,26 @@
+"""Microscopic crowd model: rigid discs, catching-up scheme (seed 000 sec. 2).
+
+Pure-array interface:
+
+- :class:`MicroSimulation` (state + :meth:`~MicroSimulation.step` +
+  :meth:`~MicroSimulation.run` generator of :class:`StepInfo`),
+- :func:`project` (the QP of seed 000 eq. 16, exact or Uzawa eq. 17),
+- :func:`sample_discs`, :func:`read_discs_csv` (initial crowds).
+"""
+
+from .contacts import CandidateList, Constraints, WallSet
+from .projection import ProjectionResult, kkt_residual, project
+from .scheme import MicroSimulation, StepInfo, exit_crossings, run
+
+__all__ = [
+    "CandidateList",
+    "Constraints",
+    "WallSet",
+    "ProjectionResult",
+    "kkt_residual",
+    "project",
+    "MicroSimulation",
+    "StepInfo",
+    "exit_crossings",
+    "run",
+]

@@ -1,0 +1,163 @@
+"""femcrowd plot: offscreen pictures that are not blank, the animation, the curves, micro discs."""
+
+from pathlib import Path
+
+import imageio.v3 as iio
+import meshio
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from femcrowd.cli import main
+from femcrowd.mesh import file_checksum
+from femcrowd.output import FrameSeries, History, write_json
+from femcrowd.plot import CMAPS, EXIT, WALL, Canvas, nice_top, tick_count
+
+ROOT = Path(__file__).parents[1]
+WHITE = np.array([255, 255, 255])
+
+
+def rgb(colour):
+    return np.array([int(colour[k:k + 2], 16) for k in (1, 3, 5)])
+
+
+def has_colour(image, colour, tol=12):
+    """Is some pixel within tol (per channel) of the colour?"""
+    return bool(np.any(np.all(np.abs(image.astype(int) - colour) <= tol, axis=-1)))
+
+
+def cmap_end(name):
+    """RGB of the top of a matplotlib colour map."""
+    import matplotlib
+
+    return np.round(255 * np.array(matplotlib.colormaps[name](1.0)[:3])).astype(int)
+
+
+def check_not_blank(image, colours=20, filled=0.3):
+    """Several distinct colours and a good part of the picture not background."""
+    pixels = image.reshape(-1, 3)
+    assert len(np.unique(pixels, axis=0)) >= colours
+    assert np.mean(np.any(pixels != WHITE, axis=1)) >= filled
+
+
+def test_canvas_renders_a_field_walls_and_exits_offscreen():
+    """A 2 x 1 rectangle coloured by a density ramp: field, walls and exit all visible."""
+    import pyvista as pv
+
+    grid = pv.Plane(center=(1, 0.5, 0), i_size=2, j_size=1, i_resolution=20, j_resolution=10)
+    grid.cell_data["density"] = grid.cell_centers().points[:, 0] / 2  # 0 .. 1 from left to right
+    walls = np.array([[[0, 0], [2, 0]], [[2, 0], [2, 1]], [[2, 1], [0, 1]]], float)
+    exits = np.array([[[0, 1], [0, 0]]], float)
+    canvas = Canvas(((0, 2), (0, 1)), walls, exits, [], grid, width=300)
+    canvas.show(grid, "density", (0.0, 1.0), CMAPS["density"], "density")
+    canvas.title("test")
+    image = canvas.image()
+    canvas.close()
+    assert image.shape[1] == 300
+    check_not_blank(image)
+    assert has_colour(image, cmap_end(CMAPS["density"]), tol=20)  # the densest cells
+    assert has_colour(image, rgb(EXIT)) and has_colour(image, rgb(WALL))
+    # the left half of the floor is lighter than the right half (the ramp is drawn the right way round)
+    rows = slice(canvas.height // 2 - 5, canvas.height // 2 + 5)
+    left, right = image[rows, 40:140].sum(), image[rows, 160:260].sum()
+    assert left > right
+
+
+@pytest.fixture(scope="module")
+def short_run(tmp_path_factory):
+    """The shipped room run for 1 s (3 frames), written by `femcrowd run`."""
+    out = tmp_path_factory.mktemp("room") / "out"
+    result = CliRunner().invoke(main, ["run", str(ROOT / "cases" / "room"), "--out", str(out), "-q",
+                                       "--set", "time.end=1", "--set", "output.every=0.5"])
+    assert result.exit_code == 0, result.output
+    assert f"femcrowd plot {out}" in result.output  # the run says how to look at its results
+    return out
+
+
+def test_plot_writes_pictures_animation_and_curves(short_run, tmp_path):
+    result = CliRunner().invoke(main, ["plot", str(short_run), "-o", str(tmp_path), "-q"])
+    assert result.exit_code == 0, result.output
+    names = sorted(p.name for p in tmp_path.iterdir())
+    density = [n for n in names if n.startswith("density_t")]
+    pressure = [n for n in names if n.startswith("pressure_t")]
+    assert density == ["density_t0000.0.png", "density_t0000.5.png", "density_t0001.0.png"]  # distinct frames
+    assert len(pressure) == 3
+    assert {"density.gif", "curves.png"} <= set(names)
+    for name in density + pressure:
+        check_not_blank(iio.imread(tmp_path / name)[..., :3])
+    check_not_blank(iio.imread(tmp_path / "curves.png")[..., :3], filled=0.03)  # lines and text
+    frames = iio.imread(tmp_path / "density.gif", index=None)
+    assert len(frames) == 3  # every frame of the run (t = 0, 0.5, 1)
+    assert not np.array_equal(frames[0], frames[-1])  # the crowd moved
+    # the initial crowd (x < 4, 40 % of the floor at density 0.8) is drawn in the map's colour of 0.8
+    import matplotlib
+
+    colour = np.round(255 * np.array(matplotlib.colormaps[CMAPS["density"]](0.8)[:3])).astype(int)
+    first = iio.imread(tmp_path / "density_t0000.0.png")[..., :3]
+    share = np.mean(np.all(np.abs(first.astype(int) - colour) <= 6, axis=-1))
+    assert 0.2 < share < 0.4
+
+
+def test_plot_times_snap_to_frames_and_bad_times_are_refused(short_run, tmp_path):
+    runner = CliRunner()
+    result = runner.invoke(main, ["plot", str(short_run), "-o", str(tmp_path), "-q", "--no-animation",
+                                  "--times", "0.74,1"])
+    assert result.exit_code == 0, result.output
+    assert sorted(p.name for p in tmp_path.glob("density_t*")) == ["density_t0000.5.png", "density_t0001.0.png"]
+    assert not (tmp_path / "density.gif").exists()
+    bad = runner.invoke(main, ["plot", str(short_run), "-o", str(tmp_path), "--times", "7"])
+    assert bad.exit_code == 2
+    assert bad.stderr.count("\n") == 1 and "--times" in bad.stderr and "[0, 1]" in bad.stderr
+
+
+def test_plot_refuses_a_directory_without_frames(tmp_path):
+    result = CliRunner().invoke(main, ["plot", str(tmp_path)])
+    assert result.exit_code == 2
+    assert result.stderr.startswith("femcrowd: error:") and result.stderr.count("\n") == 1
+
+
+def write_discs(directory, frames=3):
+    """A hand-written micro output: discs.pvd (radius, velocity, pressure), history, summary."""
+    mesh = ROOT / "meshes" / "room_one_door.msh"
+    write_json(directory / "summary.json", {
+        "case": {"title": "discs", "mesh": {"file": str(mesh), "refine": 0}, "boundary": {"exits": ["exit"]},
+                 "model": {"type": "micro", "rho_max": 1.0}},
+        "mesh": {"file": str(mesh), "sha256": file_checksum(mesh)}})
+    series = FrameSeries(directory, "discs")
+    history = History(directory / "history.csv", ["time", "dt", "count", "evacuated", "contacts",
+                                                   "max_overlap", "solver_iterations", "step_seconds"])
+    x, y = np.meshgrid(np.arange(1, 4, 0.5), np.arange(0.5, 5.6, 0.5))
+    centres = np.column_stack([x.ravel(), y.ravel()])
+    for k in range(frames):
+        q = centres + [2.0 * k, 0.0]
+        pressure = q[:, 0] - q[:, 0].min()  # grows towards the door
+        points = np.column_stack([q, np.zeros(len(q))])
+        series.write(float(k), meshio.Mesh(points, [("vertex", np.arange(len(q))[:, None])], point_data={
+            "radius": np.full(len(q), 0.24), "velocity": np.tile([1.0, 0, 0], (len(q), 1)), "pressure": pressure}))
+        history.append({"time": float(k), "dt": 1.0, "count": len(q), "evacuated": 0, "contacts": 0,
+                        "max_overlap": 0.0, "solver_iterations": 1, "step_seconds": 0.01})
+    history.close()
+    return len(centres), float(pressure.max())
+
+
+def test_plot_micro_discs_coloured_by_pressure(tmp_path):
+    count, top = write_discs(tmp_path)
+    result = CliRunner().invoke(main, ["plot", str(tmp_path), "-q"])
+    assert result.exit_code == 0, result.output
+    names = {p.name for p in tmp_path.iterdir()}
+    assert {"discs_t0000.png", "discs_t0001.png", "discs_t0002.png", "discs.gif", "curves.png"} <= names
+    image = iio.imread(tmp_path / "discs_t0002.png")[..., :3]
+    check_not_blank(image)
+    # the discs nearest the door carry the largest pressure: the colour of pressure / nice_top(top)
+    import matplotlib
+
+    colour = np.round(255 * np.array(matplotlib.colormaps[CMAPS["pressure"]](top / nice_top(top))[:3]))
+    assert has_colour(image, colour.astype(int), tol=6)
+    assert len(iio.imread(tmp_path / "discs.gif", index=None)) == 3
+
+
+@pytest.mark.parametrize("value, top, labels", [(0.636, 0.8, 5), (1.0, 1.0, 5), (1.01, 1.2, 5), (37, 40, 5),
+                                                (0.0021, 0.0025, 6), (5.5, 6, 4), (0.0, 1.0, 5)])
+def test_colour_bar_ranges_are_round(value, top, labels):
+    assert nice_top(value) == pytest.approx(top)
+    assert tick_count(nice_top(value)) == labels

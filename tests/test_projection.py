@@ -1,0 +1,124 @@
+"""The correction step: exact LCP solution, invariants, singular and warm-started cases."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.optimize
+import skfem
+
+from femcrowd.exact import DiscProjection
+from femcrowd.mesh import Domain
+from femcrowd.projection import Projection
+
+MESHES = Path(__file__).parents[1] / "meshes"
+
+
+def square_domain(n=12, exits=()):
+    """Structured square mesh [0, 1]^2 with its four sides as named groups."""
+    mesh = skfem.MeshTri.init_sqsymmetric().refined(int(np.log2(n)))
+    mesh = mesh.with_boundaries({
+        "left": lambda x: np.isclose(x[0], 0), "right": lambda x: np.isclose(x[0], 1),
+        "bottom": lambda x: np.isclose(x[1], 0), "top": lambda x: np.isclose(x[1], 1)})
+    return Domain(mesh, exits)
+
+
+def check_lcp(domain, rho_tilde, rho, phi, tol=1e-9):
+    """The discrete properties of the design note, sec. 2."""
+    area = domain.area
+    assert np.all(np.isfinite(rho)) and np.all(np.isfinite(phi))
+    assert phi.min() >= 0
+    assert rho.min() >= 0
+    assert rho.max() <= 1 + tol
+    assert np.all(phi[rho < 1 - tol] == 0)
+    w = area * (1 - rho)
+    assert np.allclose(w, area * (1 - rho_tilde) + domain.laplacian() @ phi, atol=1e-12)
+
+
+def test_lcp_matches_an_independent_solver():
+    """PDAS result == the minimiser of the LCP's quadratic program (A SPD), by L-BFGS-B."""
+    domain = square_domain(4, exits=["left"])
+    rng = np.random.default_rng(0)
+    rho_tilde = rng.uniform(0.2, 1.6, domain.ncells)
+    rho, phi, info = Projection(domain)(rho_tilde)
+    check_lcp(domain, rho_tilde, rho, phi)
+    A, b = domain.laplacian().toarray(), domain.area * (1 - rho_tilde)
+    # LCP(w = A phi + b), A SPD <=> min 1/2 phi.A phi + b.phi over phi >= 0
+    #                          <=> min |L^T phi + L^-1 b|^2 over phi >= 0, A = L L^T
+    L = np.linalg.cholesky(A)
+    ref = scipy.optimize.lsq_linear(L.T, -np.linalg.solve(L, b), bounds=(0, np.inf),
+                                    method="bvls", tol=1e-14).x
+    assert np.allclose(phi, ref, rtol=0, atol=1e-9 * phi.max())
+    assert info["iterations"] <= 10
+
+
+def test_nothing_to_do_when_nothing_exceeds_one():
+    domain = square_domain(4)
+    rho_tilde = np.linspace(0, 1, domain.ncells)
+    rho, phi, info = Projection(domain)(rho_tilde)
+    assert info["iterations"] == 0 and np.all(phi == 0) and np.array_equal(rho, rho_tilde)
+
+
+def test_mass_conserved_and_exit_flux_accounted():
+    domain = square_domain(8, exits=["left"])
+    rho_tilde = np.where(domain.centroid[:, 0] < 0.5, 1.5, 0.2)
+    rho, phi, _ = Projection(domain)(rho_tilde)
+    exit_T = np.bincount(domain.f2t[0][domain.exit], domain.transmissibility[domain.exit], domain.ncells)
+    lost = exit_T @ phi
+    assert lost > 0
+    assert abs(domain.area @ rho + lost - domain.area @ rho_tilde) < 1e-13 * (domain.area @ rho_tilde)
+
+
+def test_closed_room_fully_saturated_is_the_singular_case():
+    """Mass = area in a closed room: A_SS is pure Neumann; the answer is rho = 1 and min phi = 0."""
+    domain = square_domain(8)
+    x = domain.centroid
+    bump = np.where(x[:, 0] + x[:, 1] < 0.6, 0.3, 0.0)
+    rho_tilde = 1 + bump - (domain.area @ bump) / domain.area.sum()  # mean exactly 1, some cells > 1
+    rho, phi, info = Projection(domain)(rho_tilde)
+    assert np.abs(rho - 1).max() < 1e-9
+    assert phi.min() == 0 and phi.max() > 0
+    assert abs(domain.area @ rho - domain.area @ rho_tilde) < 1e-12
+
+
+def test_warm_start_gives_the_same_answer_in_fewer_iterations():
+    domain = square_domain(16, exits=["left"])
+    x = domain.centroid
+    projection = Projection(domain)
+    first = np.where(np.hypot(x[:, 0] - 0.5, x[:, 1] - 0.5) < 0.3, 1.4, 0.5)
+    projection(first)
+    second = first * (1 + 0.01 * np.sin(7 * x[:, 0]))
+    rho_warm, phi_warm, info_warm = projection(second)
+    rho_cold, phi_cold, info_cold = Projection(domain)(second)
+    assert np.allclose(phi_warm, phi_cold, atol=1e-12 * phi_cold.max())
+    assert info_warm["iterations"] <= info_cold["iterations"]
+    assert info_warm["iterations"] <= 3
+
+
+def test_exact_solution_4_one_projection_of_a_disc():
+    """rho~ = c on r < R: saturated disc of radius R sqrt(c); phi converges to the exact one."""
+    exact = DiscProjection(c=2.0, R=0.4)
+    errors, radius_errors, hs = [], [], []
+    mesh = skfem.MeshTri.load(str(MESHES / "square_exits.msh"))
+    for level in range(3):
+        domain = Domain(mesh.refined(level) if level else mesh, ["exit"])
+        x, y = domain.centroid.T
+        rho_tilde = domain.cell_average(exact.initial)
+        rho, phi, _ = Projection(domain)(rho_tilde)
+        check_lcp(domain, rho_tilde, rho, phi)
+        errors.append(np.sqrt(domain.area @ (phi - exact.phi(x, y)) ** 2))
+        radius_errors.append(abs(np.sqrt(domain.area[rho > 1 - 1e-9].sum() / np.pi) - exact.R1))
+        hs.append(domain.h)
+    rates = np.log(np.array(errors[:-1]) / errors[1:]) / np.log(np.array(hs[:-1]) / hs[1:])
+    assert errors[-1] < 2e-3 * exact.phi(0, 0)
+    assert rates.min() > 0.8, rates
+    assert radius_errors[-1] < 0.02 and radius_errors[-1] < radius_errors[0]
+
+
+@pytest.mark.parametrize("c", [1.0 + 1e-12, 50.0])
+def test_extreme_oversaturation_keeps_bounds(c):
+    domain = square_domain(16, exits=["left", "right"])
+    x = domain.centroid
+    rho_tilde = np.where(np.hypot(x[:, 0] - 0.5, x[:, 1] - 0.5) < 0.1, c, 0.0)
+    rho, phi, _ = Projection(domain)(rho_tilde)
+    check_lcp(domain, rho_tilde, rho, phi)
