@@ -135,7 +135,7 @@ def _resolve(raw, schema, file, prefix):
     for name in raw:
         if name not in schema:
             close = difflib.get_close_matches(name, list(schema), n=1)
-            hint = f" (did you mean {prefix}{close[0]!r}?)" if close else ""
+            hint = f" (did you mean {prefix + close[0]!r}?)" if close else ""
             raise InputError(file, prefix + name, raw[name], f"unknown key{hint}")
     out = {}
     for name, spec in schema.items():

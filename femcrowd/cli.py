@@ -141,7 +141,7 @@ def plot(outdir, times, no_animation, mp4, out, quiet):
 @main.command()
 @click.argument("geometry", type=click.Path())
 @click.option("-o", "--out", type=click.Path(), help="The .msh file (default: GEOMETRY with .msh).")
-@click.option("--exit-size", type=float, metavar="H",
+@click.option("--exit-size", type=click.FloatRange(min=0, min_open=True), metavar="H",
               help="Cell size near every exit (m), overriding the exits' own 'size' keys.")
 def mesh(geometry, out, exit_size):
     """Mesh the floor plan GEOMETRY (a .toml file) with gmsh.
@@ -281,3 +281,44 @@ def sweep(case_dir, set_values, overrides, out, serial, scheduler, force):
     rows, text, root = run_sweep(case_dir, set_values, out, overrides, serial, scheduler, force, echo=click.echo)
     click.echo(text)
     click.echo(f"runs and sweep.csv in {root}")
+
+
+@main.command()
+@click.option("--out", type=click.Path(), default="stress-output", show_default=True,
+              help="Directory for the runs (one per scene) and the table stress.csv / stress.md.")
+@click.option("--only", multiple=True, metavar="SCENE", help="Run only this scene (repeatable).")
+@click.option("--cases", type=click.Path(), help="Directory of scene case directories (default: cases/stress).")
+@click.option("--force", is_flag=True, help="Write into a non-empty directory femcrowd did not create.")
+def stress(out, only, cases, force):
+    """Run the stiff and extreme scenes of cases/stress and check every invariant.
+
+    Each scene is a normal case run through the controller (femcrowd run); its
+    summary.json, history.csv and frames are checked against the invariants of
+    the design note and the scene's exact solution. One row per scene; exit
+    code 1 if any scene fails.
+
+    \b
+    Example:
+      femcrowd stress --out /tmp/stress
+      femcrowd stress --only closed-saturated --only wall-a0999
+    """
+    import time
+
+    from . import stress as st
+    from .output import prepare_output_dir
+
+    tic = time.perf_counter()
+    cases = cases or st.CASES
+    names = list(only) or st.scenes(cases)
+    root = prepare_output_dir(out, "femcrowd stress --out", force)
+    click.echo(st.header())
+    results = st.run_all(names, root, cases, echo=lambda r: click.echo(st.format_row(r, st.WIDTHS)))
+    for r in results:
+        for c in r.failures():
+            click.echo(f"FAIL {r.name}: {c.what}: {c.detail}")
+    st.write_tables(results, root / "stress")
+    passed = sum(r.passed for r in results)
+    click.echo(f"{passed}/{len(results)} scenes pass in {time.perf_counter() - tic:.0f} s; "
+               f"table: {root / 'stress.md'}, {root / 'stress.csv'}; runs: {root}/<scene>")
+    if passed < len(results):
+        sys.exit(1)

@@ -14,7 +14,7 @@ from collections import defaultdict
 import numpy as np
 
 from .projection import Projection, cell_mean, velocity_correction
-from .transport import UpwindTransport, exit_matrix
+from .transport import MUSCLTransport, UpwindTransport, exit_matrix
 
 SATURATED = 1.0 - 1e-9  # rho above this counts as saturated (the solver tolerance)
 
@@ -22,7 +22,7 @@ SATURATED = 1.0 - 1e-9  # rho above this counts as saturated (the solver toleran
 class MacroSolver:
     """State (t, rho, p, evacuated, evacuated per exit group) and one catching-up step."""
 
-    def __init__(self, domain, velocity, rho0, cfl=0.5, dt=None, projection=None):
+    def __init__(self, domain, velocity, rho0, cfl=0.5, dt=None, projection=None, order=0):
         self.domain, self.velocity = domain, velocity
         self.cfl, self.fixed_dt = cfl, dt
         self.t, self.step_count = 0.0, 0
@@ -34,7 +34,8 @@ class MacroSolver:
         self.initial_mass = self.mass
         self.projection = projection or Projection(domain)
         self.exit_transmissibility = exit_matrix(domain, domain.transmissibility)  # outflow T_e phi_K
-        self.transport = UpwindTransport(domain, velocity.normal_on_facets(0.0))
+        self.transport_class = (UpwindTransport, MUSCLTransport)[order]  # [scheme] order
+        self.transport = self.transport_class(domain, velocity.normal_on_facets(0.0))
         self.timers = defaultdict(float)
 
     @property
@@ -54,7 +55,7 @@ class MacroSolver:
         """Advance by one step, not beyond time ``until``; return the step's diagnostics."""
         tic = time.perf_counter()
         if not self.velocity.steady:
-            self.transport = UpwindTransport(self.domain, self.velocity.normal_on_facets(self.t))
+            self.transport = self.transport_class(self.domain, self.velocity.normal_on_facets(self.t))
         dt = self.stable_dt()
         t_new = self.t + dt
         if t_new >= until:

@@ -10,17 +10,16 @@ a wall; holes in the mesh are obstacles.
 """
 
 import contextlib
-import dataclasses
+import contextlib
 import difflib
 import hashlib
-import logging
+import io
 from pathlib import Path
 
 import meshio
 import numpy as np
 import scipy.sparse as sp
 import skfem
-import skfem.io.meshio
 
 from .errors import InputError
 
@@ -215,12 +214,7 @@ def _read_triangles(path, case_file):
     extent = float(np.ptp(points[:, :2], axis=0).max())
     if points.shape[1] > 2 and np.ptp(points[:, 2]) > 1e-12 * extent:
         fail("the mesh is not planar (z varies); femcrowd needs a 2D mesh")
-    with _quiet("skfem"):  # skfem logs a warning for tag layouts it does not parse
-        mesh = skfem.io.meshio.from_meshio(data, force_meshio_type="triangle")
-    # physical tags without a $PhysicalNames entry come back under the name None
-    named = {k: v for k, v in (mesh.boundaries or {}).items() if isinstance(k, str)}
-    if len(named) != len(mesh.boundaries or {}):
-        mesh = dataclasses.replace(mesh, _boundaries=named)
+    mesh = _ordered_mesh(data)
     x = mesh.p[:, mesh.t]
     twice_area = np.abs((x[0, 1] - x[0, 0]) * (x[1, 2] - x[1, 0]) - (x[0, 2] - x[0, 0]) * (x[1, 1] - x[1, 0]))
     if np.any(twice_area <= 1e-14 * extent ** 2):  # zero up to the round-off of the coordinates
@@ -228,16 +222,71 @@ def _read_triangles(path, case_file):
     return mesh
 
 
-@contextlib.contextmanager
-def _quiet(logger_name):
-    """Silence a library logger below ERROR for the duration of a block."""
-    logger = logging.getLogger(logger_name)
-    level = logger.level
-    logger.setLevel(logging.ERROR)
-    try:
-        yield
-    finally:
-        logger.setLevel(level)
+def _ordered_mesh(data):
+    """A MeshTri from meshio gmsh data, with cells and nodes renumbered along a Z-order curve.
+
+    Named physical groups become boundaries (line cells, matched to facets) and
+    subdomains (triangles); unnamed tags are dropped. The ordering puts
+    neighbouring cells near each other in memory: gmsh numbers them in no useful
+    order, and at 10^6 triangles that made the transport mat-vec 2-3x slower.
+    Facets, t2f and f2t are built here with one 1-D integer sort, the same
+    arrays as skfem's, whose np.unique(axis=1) takes ~20 s at 10^6 triangles.
+    """
+    names = {(int(tag), int(dim)): name for name, (tag, dim) in data.field_data.items()}
+    physical = data.cell_data.get("gmsh:physical", [np.zeros(len(c.data), int) for c in data.cells])
+    blocks = {kind: [(c.data, tags) for c, tags in zip(data.cells, physical) if c.type == kind]
+              for kind in ("triangle", "line")}
+    t = np.concatenate([cells for cells, _ in blocks["triangle"]])
+    t_tags = np.concatenate([tags for _, tags in blocks["triangle"]])
+    xy = data.points[:, :2]
+    node_order = np.argsort(_zorder(xy), kind="stable")
+    new_node = np.empty(len(xy), np.int64)
+    new_node[node_order] = np.arange(len(xy))
+    t = new_node[t]
+    cell_order = np.argsort(_zorder(xy[node_order][t].mean(axis=1)), kind="stable")
+    t, t_tags = t[cell_order], t_tags[cell_order]
+    mesh = skfem.MeshTri(np.ascontiguousarray(xy[node_order].T), np.ascontiguousarray(t.T), validate=False)
+    t = mesh.t.T.astype(np.int64)  # skfem may reorder the nodes of each triangle
+
+    nt, nv = len(t), len(xy)
+    local = ((0, 1), (1, 2), (0, 2))  # skfem's facet numbering of a triangle
+    pairs = np.sort(np.concatenate([t[:, list(f)] for f in local]), axis=1)
+    key = pairs[:, 0] * nv + pairs[:, 1]
+    order = np.argsort(key, kind="stable")
+    sorted_key = key[order]
+    first = np.r_[True, sorted_key[1:] != sorted_key[:-1]]
+    start = np.flatnonzero(first)
+    count = np.diff(np.r_[start, len(key)])
+    t2f = np.empty(len(key), np.int64)
+    t2f[order] = np.cumsum(first) - 1
+    facet_key = sorted_key[start]
+    mesh._facets = np.vstack([facet_key // nv, facet_key % nv])
+    mesh._t2f = t2f.reshape(3, nt)
+    mesh._f2t = np.vstack([order[start] % nt, np.where(count > 1, order[start + count - 1] % nt, -1)])
+
+    boundaries = {}
+    if blocks["line"]:
+        lines = np.sort(new_node[np.concatenate([cells for cells, _ in blocks["line"]])], axis=1)
+        line_tags = np.concatenate([tags for _, tags in blocks["line"]])
+        line_key = lines[:, 0] * nv + lines[:, 1]
+        facet = np.minimum(np.searchsorted(facet_key, line_key), len(facet_key) - 1)
+        found = facet_key[facet] == line_key
+        for tag in np.unique(line_tags):
+            if (int(tag), 1) in names:
+                boundaries[names[int(tag), 1]] = np.unique(facet[found & (line_tags == tag)])
+    subdomains = {names[int(tag), 2]: np.flatnonzero(t_tags == tag)
+                  for tag in np.unique(t_tags) if (int(tag), 2) in names}
+    mesh._boundaries, mesh._subdomains = boundaries or None, subdomains or None
+    return mesh
+
+
+def _zorder(xy):
+    """Morton (Z-order) keys of points, 16 bits per axis."""
+    low, span = xy.min(axis=0), np.ptp(xy, axis=0)
+    q = ((xy - low) / np.where(span > 0, span, 1.0) * 65535).astype(np.uint64)
+    for shift, mask in ((8, 0x00FF00FF), (4, 0x0F0F0F0F), (2, 0x33333333), (1, 0x55555555)):
+        q = (q | (q << np.uint64(shift))) & np.uint64(mask)
+    return q[:, 0] | (q[:, 1] << np.uint64(1))
 
 
 def file_checksum(path):

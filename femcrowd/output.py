@@ -18,7 +18,7 @@ import numpy as np
 from .errors import InputError
 
 MARKER = ".femcrowd-run"
-OWN_FILES = ("*.vtu", "*.pvd", "history.csv", "summary.json", "case.toml", "*.csv", "*.png", "*.gif", "*.md")
+OWN_FILES = ("*.vtu", "*.pvd", "history.csv", "summary.json", "case.toml", "*.csv", "*.png", "*.gif", "*.mp4", "*.md")
 
 
 def prepare_output_dir(path, case_file, force=False):

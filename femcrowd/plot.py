@@ -18,6 +18,7 @@ the mesh cannot be found the boundary of the frames is drawn, all as walls.
 """
 
 import csv
+import importlib.util
 import json
 import logging
 import os
@@ -376,17 +377,15 @@ def _disc_pictures(run, scene, series, chosen, frames, out):
 
 
 def animation(run, scene, out, mp4=False, quiet=True):
-    """density.gif (discs.gif for micro runs), or .mp4; frames until the crowd is almost gone."""
+    """density.gif (discs.gif for micro runs), or .mp4, with the frames until the crowd is almost gone;
+    returns its path (None without density frames)."""
     import imageio.v2 as imageio
     from tqdm import tqdm
 
-    if mp4:
-        try:
-            import imageio_ffmpeg  # noqa: F401
-        except ImportError:
-            raise InputError(run.directory, "--mp4", True,
-                             "MP4 needs imageio-ffmpeg (pip install imageio-ffmpeg); the default GIF does not") from None
     stem = "solution" if "solution" in run.frames else "discs"
+    if stem == "solution" and "density" not in run.read(stem, 0).cell_data:
+        log.warning("no density in the frames ([output].fields): no animation")
+        return None
     series = run.frames[stem]
     t = np.array([s[0] for s in series])
     t_stop = run.time_remaining(ANIMATION_REMAINING)
@@ -480,13 +479,12 @@ def curves(run, out):
 def plot_run(directory, times=None, animate=True, out=None, mp4=False, quiet=True):
     """Write the pictures, animation and curves of a run; returns the written paths."""
     run = RunOutput(directory)
+    if animate and mp4 and importlib.util.find_spec("imageio_ffmpeg") is None:
+        raise InputError(run.directory, "--mp4", True,
+                         "MP4 needs imageio-ffmpeg (pip install imageio-ffmpeg); the default GIF does not")
     out = Path(out) if out is not None else run.directory
     out.mkdir(parents=True, exist_ok=True)
     scene = Scene(run)
     written = pictures(run, scene, times, out)
-    if animate:
-        written.append(animation(run, scene, out, mp4, quiet))
-    path = curves(run, out)
-    if path is not None:
-        written.append(path)
-    return written
+    written += [animation(run, scene, out, mp4, quiet) if animate else None, curves(run, out)]
+    return [path for path in written if path is not None]

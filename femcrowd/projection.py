@@ -50,14 +50,17 @@ class ProjectionError(RuntimeError):
 class Projection:
     """Exact LCP projection with warm-started active sets and reused linear solvers."""
 
-    def __init__(self, domain, direct_max=50_000, tol=1e-12, max_iterations=100, reuse=True):
+    def __init__(self, domain, direct_max=50_000, tol=1e-12, max_iterations=None, reuse=True):
         self.A = domain.laplacian()
         self.A.sort_indices()
         self.area = domain.area
         self.has_exit = np.bincount(domain.f2t[0][domain.exit], minlength=domain.ncells) > 0
         self.direct_max = direct_max
         self.tol = tol
-        self.max_iterations = max_iterations
+        # S grows by about one layer of cells per iteration, so a stiff front (rho ~ 0.999 running
+        # into a wall: the saturated zone advances ~1/(1 - rho) cells per step) needs as many
+        # iterations as the front crosses cells; the M-matrix bound is n + 1 (monotone iterates).
+        self.max_iterations = max_iterations or domain.ncells + 1
         self.reuse = reuse
         self.active = np.zeros(0, np.intp)      # S of the last call (sorted cells): the warm start
         self.phi_active = np.zeros(0)           # phi on it: the initial guess of the next solve

@@ -45,7 +45,8 @@ def setup_macro(case):
     rho0 = initial_density(case, domain)
     tic = time.perf_counter()
     projection = Projection(domain, case["projection"]["direct_max"], case["projection"]["tol"])
-    solver = MacroSolver(domain, velocity, rho0, case["time"]["cfl"], case["time"]["dt"], projection)
+    solver = MacroSolver(domain, velocity, rho0, case["time"]["cfl"], case["time"]["dt"], projection,
+                         case["scheme"]["order"])
     timing["assembly"] = time.perf_counter() - tic
     if case["time"]["dt"] is not None and case["time"]["dt"] > solver.transport.max_dt:
         raise InputError(case.file, "time.dt", case["time"]["dt"],
@@ -91,6 +92,8 @@ def initial_density(case, domain):
         if name not in subdomains:
             raise InputError(case.file, f"initial.regions.{name}", value,
                              f"no surface group of that name (groups: {', '.join(subdomains) or 'none'})")
+        if not 0 <= value <= rho_max:
+            raise InputError(case.file, f"initial.regions.{name}", value, f"is outside [0, rho_max = {rho_max:g}]")
         density[np.asarray(subdomains[name])] = value
     low, high = float(density.min()), float(density.max())
     if low < 0 or high > rho_max * (1 + 1e-12):

@@ -111,13 +111,17 @@ def test_info_prints_config_mesh_statistics_and_estimate():
     assert "121 frames" in out
 
 
-def test_bad_geometry_is_one_line_and_exit_2(tmp_path):
-    bad = PLAN.replace("[[0, 0], [3, 0], [3, 1], [0, 1]]", "[[0, 0], [3, 1], [3, 0], [0, 1]]")  # a bow tie
-    (tmp_path / "bad.toml").write_text(bad)
+@pytest.mark.parametrize("old, new, key, message", [
+    ("[[0, 0], [3, 0], [3, 1], [0, 1]]", "[[0, 0], [3, 1], [3, 0], [0, 1]]", "outer.points", "intersects itself"),
+    ("from = [3, 0]", "from = [3.5, 0]", "exits[1]", "must lie on one straight edge"),
+    ("center = [2, 0.5]", "center = [2, 1.5]", "holes[0]", "strictly inside the outer boundary")])
+def test_bad_geometry_is_one_line_and_exit_2(tmp_path, old, new, key, message):
+    """A self-intersecting outline, an exit off the boundary, a hole outside the floor."""
+    (tmp_path / "bad.toml").write_text(PLAN.replace(old, new))
     result = invoke("mesh", tmp_path / "bad.toml")
     assert result.exit_code == 2
     assert result.stderr.count("\n") == 1 and "Traceback" not in result.output
-    assert "bad.toml: outer.points" in result.stderr and "intersects itself" in result.stderr
+    assert f"bad.toml: {key} = " in result.stderr and message in result.stderr
     assert not (tmp_path / "bad.msh").exists()
 
 

@@ -1,11 +1,14 @@
 """femcrowd plot: offscreen pictures that are not blank, the animation, the curves, micro discs."""
 
+import importlib.util
 from pathlib import Path
 
 import imageio.v3 as iio
+import matplotlib
 import meshio
 import numpy as np
 import pytest
+import pyvista as pv
 from click.testing import CliRunner
 
 from femcrowd.cli import main
@@ -26,24 +29,20 @@ def has_colour(image, colour, tol=12):
     return bool(np.any(np.all(np.abs(image.astype(int) - colour) <= tol, axis=-1)))
 
 
-def cmap_end(name):
-    """RGB of the top of a matplotlib colour map."""
-    import matplotlib
-
-    return np.round(255 * np.array(matplotlib.colormaps[name](1.0)[:3])).astype(int)
+def colour_of(name, value):
+    """RGB of a value in [0, 1] in a matplotlib colour map."""
+    return np.round(255 * np.array(matplotlib.colormaps[name](value)[:3])).astype(int)
 
 
 def check_not_blank(image, colours=20, filled=0.3):
     """Several distinct colours and a good part of the picture not background."""
-    pixels = image.reshape(-1, 3)
-    assert len(np.unique(pixels, axis=0)) >= colours
+    pixels = image.reshape(-1, 3).astype(np.int64)
+    assert len(np.unique(pixels @ [65536, 256, 1])) >= colours
     assert np.mean(np.any(pixels != WHITE, axis=1)) >= filled
 
 
 def test_canvas_renders_a_field_walls_and_exits_offscreen():
     """A 2 x 1 rectangle coloured by a density ramp: field, walls and exit all visible."""
-    import pyvista as pv
-
     grid = pv.Plane(center=(1, 0.5, 0), i_size=2, j_size=1, i_resolution=20, j_resolution=10)
     grid.cell_data["density"] = grid.cell_centers().points[:, 0] / 2  # 0 .. 1 from left to right
     walls = np.array([[[0, 0], [2, 0]], [[2, 0], [2, 1]], [[2, 1], [0, 1]]], float)
@@ -55,7 +54,7 @@ def test_canvas_renders_a_field_walls_and_exits_offscreen():
     canvas.close()
     assert image.shape[1] == 300
     check_not_blank(image)
-    assert has_colour(image, cmap_end(CMAPS["density"]), tol=20)  # the densest cells
+    assert has_colour(image, colour_of(CMAPS["density"], 1.0), tol=20)  # the densest cells
     assert has_colour(image, rgb(EXIT)) and has_colour(image, rgb(WALL))
     # the left half of the floor is lighter than the right half (the ramp is drawn the right way round)
     rows = slice(canvas.height // 2 - 5, canvas.height // 2 + 5)
@@ -90,9 +89,7 @@ def test_plot_writes_pictures_animation_and_curves(short_run, tmp_path):
     assert len(frames) == 3  # every frame of the run (t = 0, 0.5, 1)
     assert not np.array_equal(frames[0], frames[-1])  # the crowd moved
     # the initial crowd (x < 4, 40 % of the floor at density 0.8) is drawn in the map's colour of 0.8
-    import matplotlib
-
-    colour = np.round(255 * np.array(matplotlib.colormaps[CMAPS["density"]](0.8)[:3])).astype(int)
+    colour = colour_of(CMAPS["density"], 0.8)
     first = iio.imread(tmp_path / "density_t0000.0.png")[..., :3]
     share = np.mean(np.all(np.abs(first.astype(int) - colour) <= 6, axis=-1))
     assert 0.2 < share < 0.4
@@ -149,10 +146,7 @@ def test_plot_micro_discs_coloured_by_pressure(tmp_path):
     image = iio.imread(tmp_path / "discs_t0002.png")[..., :3]
     check_not_blank(image)
     # the discs nearest the door carry the largest pressure: the colour of pressure / nice_top(top)
-    import matplotlib
-
-    colour = np.round(255 * np.array(matplotlib.colormaps[CMAPS["pressure"]](top / nice_top(top))[:3]))
-    assert has_colour(image, colour.astype(int), tol=6)
+    assert has_colour(image, colour_of(CMAPS["pressure"], top / nice_top(top)), tol=6)
     assert len(iio.imread(tmp_path / "discs.gif", index=None)) == 3
 
 
@@ -161,3 +155,11 @@ def test_plot_micro_discs_coloured_by_pressure(tmp_path):
 def test_colour_bar_ranges_are_round(value, top, labels):
     assert nice_top(value) == pytest.approx(top)
     assert tick_count(nice_top(value)) == labels
+
+
+def test_mp4_without_imageio_ffmpeg_is_one_line_and_writes_nothing(short_run, tmp_path):
+    if importlib.util.find_spec("imageio_ffmpeg") is not None:
+        pytest.skip("imageio-ffmpeg is installed")
+    result = CliRunner().invoke(main, ["plot", str(short_run), "-o", str(tmp_path / "p"), "--mp4"])
+    assert result.exit_code == 2 and "imageio-ffmpeg" in result.stderr and result.stderr.count("\n") == 1
+    assert not (tmp_path / "p").exists()

@@ -1,0 +1,260 @@
+"""Cost per step of the macro solver from 10^4 to 10^6 triangles (issue 6).
+
+Scene: a 20 m x 15 m hall with a 2 m door in the middle of the wall x = 20,
+U = -grad d / |grad d| (distance to the door, unit speed), crowd at density 1
+(saturated) within 7 m of the door and 0.85 elsewhere beyond x = 3: a large
+saturated zone from the first step. Meshes are made once with gmsh
+(femcrowd.geometry.build_mesh) in benchmarks/.cache.
+
+Every size runs in its own process (peak memory per size) and prints, per phase,
+the median over the steps; the projection is compared, on the same saturated
+system, with one Ruge-Stuben AMG + CG solve from scratch (set-up + solve to the
+same tolerance, zero initial guess). The fitted exponent of the cost per step
+is taken between the two largest sizes.
+
+    python benchmarks/scale.py                      # sizes 1e4 1e5 1e6, 30 steps each
+    python benchmarks/scale.py --sizes 1e4 1e5 --steps 20
+    python benchmarks/scale.py --long               # >= 500-step 10^6 evacuation, end to end (run_macro)
+"""
+
+import argparse
+import json
+import math
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+CACHE = Path(__file__).resolve().parent / ".cache"
+HALL = """size = {size:.6g}
+[outer]
+points = [[0, 0], [20, 0], [20, 15], [0, 15]]
+[[exits]]
+name = "exit"
+from = [20, 6.5]
+to = [20, 8.5]
+"""
+AREA = 300.0
+DENSITY = "where((x - 20)**2 + (y - 7.5)**2 < 49, 1.0, 0.85 * (x > 3))"
+
+
+def mesh_file(target):
+    """The cached gmsh mesh with about `target` triangles (made on first use)."""
+    from femcrowd.geometry import build_mesh
+
+    path = CACHE / f"hall_{int(target)}.msh"
+    if not path.exists():
+        CACHE.mkdir(exist_ok=True)
+        plan = path.with_suffix(".toml")
+        plan.write_text(HALL.format(size=math.sqrt(2.02 * AREA / target)))  # ~2.02 A / h^2 triangles
+        build_mesh(plan, path)
+    return path
+
+
+def peak_memory_gb():
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20  # ru_maxrss is in KiB on Linux
+
+
+def one_size(target, steps):
+    """All phases at one size; returns a dict of medians and totals (seconds)."""
+    import pyamg
+    from femcrowd.expressions import Expression
+    from femcrowd.macro import MacroSolver
+    from femcrowd.mesh import load_domain
+    from femcrowd.output import FrameSeries, triangle_frame
+    from femcrowd.projection import Projection, pcg, vcycle
+    from femcrowd.velocity import ExitsVelocity
+
+    path = mesh_file(target)
+    out = {"target": target}
+    tic = time.perf_counter()
+    domain = load_domain(path, ["exit"])
+    out["mesh_load"] = time.perf_counter() - tic
+    out["triangles"] = domain.ncells
+    tic = time.perf_counter()
+    velocity = ExitsVelocity(domain, Expression("1"))
+    out["distance"] = time.perf_counter() - tic
+    rho0 = Expression(DENSITY)(*domain.centroid.T, 0.0)
+    tic = time.perf_counter()
+    solver = MacroSolver(domain, velocity, rho0, cfl=0.5, projection=Projection(domain))
+    out["assembly"] = time.perf_counter() - tic
+
+    projection, transport = solver.projection, solver.transport
+    record = []
+
+    def timed_transport(rho, dt):
+        tic = time.perf_counter()
+        result = transport.step(rho, dt)
+        record.append({"transport": time.perf_counter() - tic})
+        return result
+
+    def timed_projection(rho_tilde):
+        tic = time.perf_counter()
+        rho, phi, info = projection(rho_tilde)
+        record[-1].update(info, projection=time.perf_counter() - tic, rho_tilde=rho_tilde)
+        return rho, phi, info
+
+    solver.transport = type("Timed", (), {"step": staticmethod(timed_transport),
+                                          "max_dt": transport.max_dt})()
+    solver.projection = timed_projection
+    mass0, worst = solver.mass, {"mass_error": 0.0, "max_density": 0.0, "min_density": 1.0, "min_phi": 0.0}
+    for k in range(steps):
+        tic = time.perf_counter()
+        solver.step()
+        record[-1]["step"] = time.perf_counter() - tic
+        worst["mass_error"] = max(worst["mass_error"], abs(solver.mass + solver.evacuated - mass0) / mass0)
+        worst["max_density"] = max(worst["max_density"], float(solver.rho.max()))
+        worst["min_density"] = min(worst["min_density"], float(solver.rho.min()))
+        worst["min_phi"] = min(worst["min_phi"], float(solver.p.min()))
+        if k % 3 == 2 or k == steps - 1:  # the same saturated system solved from scratch by AMG
+            S = projection.active
+            K = projection.A[S][:, S].tocsr()
+            rhs = domain.area[S] * (record[-1]["rho_tilde"][S] - 1.0)
+            tic = time.perf_counter()
+            ml = pyamg.ruge_stuben_solver(K)
+            setup = time.perf_counter() - tic
+            _, its, ok = pcg(K, rhs, np.zeros(len(S)), lambda r: vcycle(ml, r),
+                             projection._threshold(K, S, projection.tol), maxiter=500)
+            record[-1]["amg_fresh"] = time.perf_counter() - tic
+            record[-1].update(amg_fresh_setup=setup, amg_fresh_iterations=its, amg_fresh_converged=ok)
+        del record[-1]["rho_tilde"]
+    with tempfile.TemporaryDirectory() as tmp:
+        series = FrameSeries(Path(tmp), "solution")
+        tic = time.perf_counter()
+        fields = {"density": solver.rho, "pressure": solver.p, "velocity": solver.velocity_field()}
+        series.write(solver.t, triangle_frame(domain, fields))
+        out["output"] = time.perf_counter() - tic
+        out["frame_mb"] = sum(f.stat().st_size for f in Path(tmp).glob("*.vtu")) / 2**20
+
+    def median(key, rows=record):
+        values = [r[key] for r in rows if key in r]
+        return float(np.median(values)) if values else float("nan")
+
+    sampled = [r for r in record if "amg_fresh" in r]
+    out.update({key: median(key) for key in
+                ("step", "transport", "projection", "detect", "active_set", "setup", "solve", "unknowns",
+                 "linear_iterations", "rebuilds", "iterations")})
+    out["iterations_mean"] = float(np.mean([r["iterations"] for r in record]))
+    out["iterations_max"] = int(max(r["iterations"] for r in record))
+    out["amg_fresh"] = median("amg_fresh", sampled)
+    out["amg_fresh_setup"] = median("amg_fresh_setup", sampled)
+    out["amg_fresh_iterations"] = median("amg_fresh_iterations", sampled)
+    out["ratio"] = float(np.median([r["projection"] / r["amg_fresh"] for r in sampled]))
+    out["ratio_max"] = float(np.max([r["projection"] / r["amg_fresh"] for r in sampled]))
+    out["steps"], out["dt"] = steps, solver.stable_dt()
+    out.update(worst)
+    out["peak_gb"] = peak_memory_gb()
+    return out
+
+
+def long_run(target, steps):
+    """A >= `steps`-step evacuation through the user path (femcrowd.run.run_macro), timed end to end."""
+    from femcrowd.case import load_case
+    from femcrowd.mesh import load_domain
+    from femcrowd.run import run_macro
+
+    path = mesh_file(target)
+    domain = load_domain(path, ["exit"])
+    perimeter = np.bincount(domain.f2t[0], domain.length, domain.ncells)
+    perimeter += np.bincount(domain.f2t[1][domain.interior], domain.length[domain.interior], domain.ncells)
+    dt = 0.45 * float(np.min(domain.area / perimeter))  # CFL <= 0.45 for |U| <= 1, steps known in advance
+    del domain
+    case_dir = CACHE / f"long_{int(target)}"
+    case_dir.mkdir(parents=True, exist_ok=True)
+    end = steps * dt
+    (case_dir / "case.toml").write_text(
+        f'title = "benchmark hall, {int(target)} triangles"\n[mesh]\nfile = "{path}"\n'
+        f'[boundary]\nexits = ["exit"]\n[initial]\ndensity = "{DENSITY}"\n'
+        f"[time]\nend = {end!r}\ndt = {dt!r}\n[output]\nevery = {end / 4!r}\n")
+    tic = time.perf_counter()
+    summary = run_macro(load_case(case_dir), out=str(case_dir / "output"), force=True, quiet=True)
+    wall = time.perf_counter() - tic
+    return {"triangles": summary["mesh"]["triangles"], "steps": summary["steps"], "wall": wall,
+            "peak_gb": peak_memory_gb(), "timing": summary["timing"],
+            "mass_error": summary["max_mass_error"], "max_density": summary["max_density_ever"],
+            "min_density": summary["min_density_ever"], "min_pressure": summary["min_pressure_ever"],
+            "active_set_iterations": summary["active_set_iterations"],
+            "evacuated_fraction": summary["evacuated"] / summary["initial_mass"]}
+
+
+ROWS = [("triangles", "triangles", "{:.0f}"), ("mesh load [s]", "mesh_load", "{:.2f}"),
+        ("distance field [s]", "distance", "{:.2f}"), ("operator assembly [s]", "assembly", "{:.2f}"),
+        ("transport step [ms]", "transport", "ms"), ("projection step [ms]", "projection", "ms"),
+        ("  saturated-set detection [ms]", "detect", "ms"), ("  active-set bookkeeping [ms]", "active_set", "ms"),
+        ("  linear set-up [ms]", "setup", "ms"), ("  linear solve [ms]", "solve", "ms"),
+        ("  unknowns |S|", "unknowns", "{:.0f}"), ("  active-set iterations (median)", "iterations", "{:.0f}"),
+        ("  active-set iterations mean / max", None, None), ("  CG iterations per step", "linear_iterations", "{:.0f}"),
+        ("  rebuilds per step (median)", "rebuilds", "{:.0f}"),
+        ("one fresh AMG solve [ms]", "amg_fresh", "ms"), ("  its set-up [ms]", "amg_fresh_setup", "ms"),
+        ("  its CG iterations", "amg_fresh_iterations", "{:.0f}"),
+        ("projection / fresh AMG (median)", "ratio", "{:.2f}"), ("projection / fresh AMG (max)", "ratio_max", "{:.2f}"),
+        ("whole step [ms]", "step", "ms"), ("VTU frame write [s]", "output", "{:.2f}"),
+        ("VTU frame size [MB]", "frame_mb", "{:.1f}"), ("peak memory [GB]", "peak_gb", "{:.2f}"),
+        ("max mass error (relative)", "mass_error", "{:.1e}"), ("max density", "max_density", "{:.12f}"),
+        ("min density", "min_density", "{:.1e}"), ("min pressure", "min_phi", "{:.1e}")]
+
+
+def table(results):
+    """Markdown table: one column per size."""
+    head = "| phase (median over steps) | " + " | ".join(f"{r['target']:.0e}" for r in results) + " |"
+    lines = [head, "|---|" + "---:|" * len(results)]
+    for label, key, fmt in ROWS:
+        if key is None:
+            cells = [f"{r['iterations_mean']:.2f} / {r['iterations_max']}" for r in results]
+        elif fmt == "ms":
+            cells = [f"{1e3 * r[key]:.1f}" for r in results]
+        else:
+            cells = [fmt.format(r[key]) for r in results]
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def child(args):
+    """Run this script in a new process (one size, or the long run) and parse its JSON line."""
+    done = subprocess.run([sys.executable, __file__, *args], check=True, capture_output=True, text=True)
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", type=float, nargs="+", default=[1e4, 1e5, 1e6], help="target triangle counts")
+    parser.add_argument("--steps", type=int, default=30, help="steps per size (medians over them)")
+    parser.add_argument("--long", action="store_true", help="time a >= 500-step 10^6 evacuation end to end")
+    parser.add_argument("--long-size", type=float, default=1e6)
+    parser.add_argument("--long-steps", type=int, default=500)
+    parser.add_argument("--one", type=float, help=argparse.SUPPRESS)
+    parser.add_argument("--long-child", action="store_true", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.one:
+        print(json.dumps(one_size(args.one, args.steps)))
+        return
+    if args.long_child:
+        print(json.dumps(long_run(args.long_size, args.long_steps)))
+        return
+    if args.long:
+        r = child(["--long-child", "--long-size", str(args.long_size), "--long-steps", str(args.long_steps)])
+        print(f"{r['steps']} steps at {r['triangles']} triangles: {r['wall']:.0f} s end to end "
+              f"({r['wall'] / 60:.1f} min), peak memory {r['peak_gb']:.2f} GB")
+        print(json.dumps(r, indent=1))
+        return
+    results = []
+    for size in args.sizes:
+        for mesh in [mesh_file(size)]:  # meshing is not part of any timing
+            assert mesh.exists()
+        results.append(child(["--one", str(size), "--steps", str(args.steps)]))
+        print(f"size {size:.0e} done: {results[-1]['triangles']} triangles", file=sys.stderr)
+    print(table(results))
+    if len(results) >= 2:
+        (a, b) = results[-2], results[-1]
+        ratio = math.log(b["triangles"] / a["triangles"])
+        for key in ("step", "transport", "projection"):
+            print(f"fitted exponent of the {key} cost between {a['triangles']} and {b['triangles']} triangles: "
+                  f"{math.log(b[key] / a[key]) / ratio:.2f}")
+
+
+if __name__ == "__main__":
+    main()

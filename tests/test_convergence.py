@@ -1,0 +1,146 @@
+"""Convergence studies and sweeps: observed rates on small series, report files, dask == serial,
+self-convergence, bad input; and the invariants of the second-order transport option."""
+
+import csv
+import json
+import math
+import pathlib
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from femcrowd.case import load_case
+from femcrowd.cli import main
+from femcrowd.convergence import (METRICS, TIMING, collect_rows, execute, observed_orders, plan_study,
+                                  run_task, study, sweep)
+from femcrowd.errors import InputError
+from femcrowd.run import setup_macro
+
+CASES = pathlib.Path(__file__).resolve().parent.parent / "cases"
+
+
+@pytest.fixture(scope="module")
+def corridor(tmp_path_factory):
+    out = tmp_path_factory.mktemp("corridor")
+    return study(CASES / "corridor-wall", 3, out=out, serial=True)
+
+
+def finest_order(rows, metric):
+    orders = observed_orders(rows, metric)
+    last = max(r["level"] for r in rows)
+    return orders[(rows[-1]["series"], rows[-1]["time"], last)]
+
+
+def test_corridor_observed_orders(corridor):
+    rows, text, out = corridor
+    assert finest_order(rows, "l1") >= 0.4
+    assert finest_order(rows, "front_error") >= 0.8
+    l1 = [r["l1"] for r in rows]
+    assert l1[0] > l1[1] > l1[2]
+
+
+def test_report_files(corridor):
+    rows, text, out = corridor
+    with open(out / "convergence.csv") as f:
+        table = list(csv.DictReader(f))
+    assert len(table) == 3
+    for column in ("series", "level", "cells", "h", "steps", "time", *TIMING, *METRICS, "mass_error"):
+        assert column in table[0], column
+    assert [int(r["level"]) for r in table] == [0, 1, 2]
+    assert float(table[2]["h"]) < float(table[0]["h"])
+    md = (out / "convergence.md").read_text()
+    assert "exact solution `wall-accumulation`" in md and "## t = 1.2" in md
+    # the finer levels carry their observed order in parentheses, e.g. "2.4e-03 (1.04)"
+    order = f"({finest_order(rows, 'front_error'):.2f})"
+    assert order in md
+    for png in ("error_vs_h.png", "error_vs_time.png"):
+        data = (out / png).read_bytes()
+        assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 20_000
+
+
+def test_radial_errors_decrease_and_the_reference_curves_are_read(tmp_path):
+    rows, text, out = study(CASES / "radial", 3, out=tmp_path, serial=True)
+    l1 = [r["l1_pixels"] for r in rows]
+    radius = [abs(r["front_error"]) for r in rows]
+    assert l1[0] > l1[1] > l1[2] and radius[0] > radius[1] > radius[2]
+    assert all(r["mass_error"] < 1e-10 for r in rows)
+
+
+def test_dask_gives_the_serial_numbers():
+    from dask.distributed import LocalCluster
+
+    base, exact, tasks = plan_study(CASES / "corridor-wall", 2)
+    serial = collect_rows(tasks, execute(run_task, tasks, serial=True))
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=":0") as cluster:
+        parallel = collect_rows(tasks, execute(run_task, tasks, scheduler=cluster.scheduler_address))
+    assert len(serial) == len(parallel) == 2
+    for a, b in zip(serial, parallel):
+        assert {k: v for k, v in a.items() if k not in TIMING + ("solve_seconds",)} == \
+               {k: v for k, v in b.items() if k not in TIMING + ("solve_seconds",)}
+
+
+def test_room_reports_self_convergence(tmp_path):
+    rows, text, out = study(CASES / "room", 2, out=tmp_path, overrides=["time.end=0.5"], serial=True)
+    assert "self-convergence" in text
+    coarse, finest = rows
+    assert all(math.isnan(finest[m]) for m in METRICS)
+    assert 0 < coarse["l1"] < 1 and coarse["symdiff"] >= 0 and math.isnan(coarse["front_error"])
+
+
+def test_time_step_series_and_options_make_one_series_each():
+    base, exact, tasks = plan_study(CASES / "radial", 2, cfls=(0.5, 0.25), set_values=["scheme.order=0,1"])
+    assert len(tasks) == 8
+    assert {t.series for t in tasks} == {f"scheme.order={o}, time.cfl={c}" for o in (0, 1) for c in (0.5, 0.25)}
+    assert {t.cfl for t in tasks} == {0.5, 0.25}
+
+
+@pytest.mark.parametrize("args, key", [
+    (dict(levels=3, set_values=["scheme.order"]), "scheme.order"),
+    (dict(levels=3, set_values=["scheme.order=0,7"]), "scheme.order"),
+    (dict(levels=3, overrides=["exact.k=2"]), "exact.k"),
+    (dict(levels=3, times=(9.0,)), "--times"),
+])
+def test_bad_study_input_names_the_key(args, key):
+    with pytest.raises(InputError) as err:
+        plan_study(CASES / "radial", **args)
+    assert key in str(err.value)
+
+
+def test_cli_bad_input_is_one_line_and_writes_nothing(tmp_path):
+    result = CliRunner().invoke(main, ["convergence", str(CASES / "radial"), "--set-values", "scheme.order=5",
+                                       "--out", str(tmp_path / "report"), "--serial"])
+    assert result.exit_code == 2
+    assert "scheme.order" in result.output and "Traceback" not in result.output
+    assert not (tmp_path / "report").exists()
+
+
+def test_sweep_writes_one_run_per_value_and_a_table(tmp_path):
+    rows, text, root = sweep(CASES / "corridor-wall", ["scheme.order=0,1"], out=tmp_path / "sweep",
+                             overrides=["time.end=0.2", "output.every=0.2"], serial=True)
+    assert [r["scheme.order"] for r in rows] == ["0", "1"]
+    for r in rows:
+        summary = json.loads((pathlib.Path(r["output_dir"]) / "summary.json").read_text())
+        assert summary["status"] == "completed" and summary["case"]["scheme"]["order"] == int(r["scheme.order"])
+        assert r["mass_error"] < 1e-10
+    with open(root / "sweep.csv") as f:
+        assert len(list(csv.DictReader(f))) == 2
+    assert "| scheme.order |" in (root / "sweep.md").read_text()
+
+
+@pytest.mark.parametrize("name, steps", [("radial", 40), ("room", 60), ("saturated-exit", 40)])
+def test_second_order_transport_keeps_the_invariants(name, steps):
+    """[scheme] order = 1: mass to 1e-10 (with the evacuated mass), 0 <= rho <= 1, p >= 0 at every step."""
+    scene = setup_macro(load_case(CASES / name, ["scheme.order=1"]))
+    solver = scene.solver
+    m0 = solver.initial_mass
+    for _ in range(steps):
+        solver.step()
+        assert abs(solver.mass + solver.evacuated - m0) <= 1e-10 * m0
+        assert solver.rho.min() >= 0.0 and solver.rho.max() <= 1 + 1e-9
+        assert solver.p.min() >= 0.0
+        assert np.all(np.isfinite(solver.rho))
+    # the predictor alone is non-negative at the CFL limit of order 0
+    transport = solver.transport
+    rho_tilde, _ = transport.step(solver.rho, transport.max_dt)
+    assert rho_tilde.min() >= 0.0
