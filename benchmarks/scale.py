@@ -78,6 +78,8 @@ def one_size(target, steps):
     tic = time.perf_counter()
     velocity = ExitsVelocity(domain, Expression("1"))
     out["distance"] = time.perf_counter() - tic
+    print(f"{domain.ncells} triangles: load {out['mesh_load']:.1f} s, distance {out['distance']:.1f} s",
+          file=sys.stderr, flush=True)
     rho0 = Expression(DENSITY)(*domain.centroid.T, 0.0)
     tic = time.perf_counter()
     solver = MacroSolver(domain, velocity, rho0, cfl=0.5, projection=Projection(domain))
@@ -122,6 +124,10 @@ def one_size(target, steps):
             record[-1]["amg_fresh"] = time.perf_counter() - tic
             record[-1].update(amg_fresh_setup=setup, amg_fresh_iterations=its, amg_fresh_converged=ok)
         del record[-1]["rho_tilde"]
+        r = record[-1]
+        print(f"step {k}: {r['step']:.3f} s, |S| {r['unknowns']}, active-set its {r['iterations']}, "
+              f"CG its {r['linear_iterations']}, rebuilds {r['rebuilds']}, fresh AMG {r.get('amg_fresh', 0):.3f} s",
+              file=sys.stderr, flush=True)
     with tempfile.TemporaryDirectory() as tmp:
         series = FrameSeries(Path(tmp), "solution")
         tic = time.perf_counter()

@@ -59,7 +59,7 @@ SCHEMA = {
     "micro": {"radius": Key(0.2, "radius"), "count": Key(None, "int", low=1),
               "seed": Key(1, "int"), "positions": Key(None, "str"),
               "method": Key("exact", "choice", ("exact", "uzawa"))},
-    "scheme": {"order": Key(0, "int", low=0, high=1)},
+    "scheme": {"transport": Key("upwind", "choice", ("upwind", "muscl", "compressive"))},
     "exact": {"name": Key(None, "choice", tuple(SOLUTIONS)),
               **{name: Key(None, "number") for name in EXACT_PARAMETERS}},
     "convergence": {"meshes": Key([], "strlist"), "reference": Key(None, "str")},

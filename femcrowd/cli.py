@@ -228,7 +228,7 @@ def _floats(option):
 @click.option("--cfl", callback=_floats("--cfl"), metavar="C1,C2,...",
               help="CFL numbers: one series per value (time-step study).")
 @click.option("--set-values", "set_values", multiple=True, metavar="KEY=V1,V2,...",
-              help="One series per value, e.g. scheme.order=0,1 (repeatable: all combinations).")
+              help="One series per value, e.g. scheme.transport=upwind,muscl (repeatable: all combinations).")
 @click.option("--times", callback=_floats("--times"), metavar="T1,T2,...",
               help="Measure also at these times (the final time always).")
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help="Override a case key (repeatable).")
@@ -246,7 +246,7 @@ def convergence(case_dir, levels, cfl, set_values, times, overrides, out, serial
     \b
     Examples:
       femcrowd convergence cases/corridor-wall --levels 4
-      femcrowd convergence cases/radial --levels 4 --set-values scheme.order=0,1
+      femcrowd convergence cases/radial --levels 4 --set-values scheme.transport=upwind,muscl,compressive
       femcrowd convergence cases/room --levels 3 --set time.end=5 --serial
     """
     from .convergence import study
@@ -289,7 +289,8 @@ def sweep(case_dir, set_values, overrides, out, serial, scheduler, force):
 @click.option("--only", multiple=True, metavar="SCENE", help="Run only this scene (repeatable).")
 @click.option("--cases", type=click.Path(), help="Directory of scene case directories (default: cases/stress).")
 @click.option("--force", is_flag=True, help="Write into a non-empty directory femcrowd did not create.")
-def stress(out, only, cases, force):
+@click.option("--checks", is_flag=True, help="Print every check of every scene under its row.")
+def stress(out, only, cases, force, checks):
     """Run the stiff and extreme scenes of cases/stress and check every invariant.
 
     Each scene is a normal case run through the controller (femcrowd run); its
@@ -309,10 +310,16 @@ def stress(out, only, cases, force):
 
     tic = time.perf_counter()
     cases = cases or st.CASES
-    names = list(only) or st.scenes(cases)
+    names = st.scenes(cases, only)
     root = prepare_output_dir(out, "femcrowd stress --out", force)
     click.echo(st.header())
-    results = st.run_all(names, root, cases, echo=lambda r: click.echo(st.format_row(r, st.WIDTHS)))
+
+    def echo(result):
+        click.echo(st.format_row(result))
+        for c in result.checks if checks else ():
+            click.echo(f"    {'ok  ' if c.ok else 'FAIL'} {c.what}" + (f": {c.detail}" if c.detail else ""))
+
+    results = st.run_all(names, root, cases, echo)
     for r in results:
         for c in r.failures():
             click.echo(f"FAIL {r.name}: {c.what}: {c.detail}")

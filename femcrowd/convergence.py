@@ -2,7 +2,7 @@
 
 A study runs one case on a refinement series (``mesh.refine`` = base + 0..N-1,
 or the mesh files of ``[convergence] meshes``), possibly for several series
-(``--set-values`` options such as ``scheme.order=0,1`` and ``--cfl`` values),
+(``--set-values`` options such as ``scheme.transport=upwind,muscl`` and ``--cfl`` values),
 and measures at the final time and chosen output times (design note, sec. 5):
 
     l1              sum_K |K| |rho_K - <rho>_K|           (<.>_K: cell average of the reference)
@@ -24,18 +24,20 @@ every number but the timings is identical whichever way they ran.
 """
 
 import csv
+import inspect
 import itertools
 import json
 import math
 import os
 import time
+import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .case import load_case, parse_override
+from .case import load_case
 from .errors import InputError
 from .exact import SOLUTIONS, RadialConcentration, SaturatedEvacuation, WallAccumulation
 from .macro import SATURATED
@@ -83,23 +85,25 @@ class Task:
 
 
 def parse_set_values(items, file="--set-values"):
-    """['key=v1,v2', 'k2=[a, b]'] -> [(key, [override strings])] (values read as TOML later)."""
+    """['key=v1,v2', 'key=["a, b", "c"]'] -> [(key, [value texts])]: comma-separated values, or a
+    TOML array for values that contain commas; each value text is then read as by --set."""
     parsed = []
     for item in items:
-        if "=" not in item:
-            raise InputError(file, item, None, "expected --set-values section.key=v1,v2,...")
-        key, text = (s.strip() for s in item.split("=", 1))
-        keys, value = parse_override(f"{key}={text}")
-        values = value if isinstance(value, list) and text.startswith("[") else text.split(",")
-        values = [v if isinstance(v, str) else _toml(v) for v in values]
-        if not key or not values or any(v.strip() == "" for v in values):
+        key, sep, text = (part.strip() for part in item.partition("="))
+        if not sep or not key or not text:
+            raise InputError(file, item, None, "expected section.key=v1,v2,...")
+        if text.startswith("["):
+            try:
+                values = [json.dumps(v) if isinstance(v, str) else json.dumps(v).lower() if isinstance(v, bool)
+                          else repr(v) for v in tomllib.loads(f"v = {text}")["v"]]
+            except tomllib.TOMLDecodeError as err:
+                raise InputError(file, key, text, f"not a TOML array: {err}") from None
+        else:
+            values = [v.strip() for v in text.split(",")]
+        if not values or any(v == "" for v in values):
             raise InputError(file, key, text, "expected one or more comma-separated values")
-        parsed.append((key, [v.strip() for v in values]))
+        parsed.append((key, values))
     return parsed
-
-
-def _toml(value):
-    return json.dumps(value) if isinstance(value, str) else str(value).lower() if isinstance(value, bool) else repr(value)
 
 
 def exact_solution(case):
@@ -116,7 +120,6 @@ def exact_solution(case):
         raise InputError(case.file, "exact.name", spec["name"],
                          f"is a one-step solution, not a time-dependent one (use one of "
                          f"{', '.join(n for n, c in SOLUTIONS.items() if c in FRONTS)})")
-    import inspect
     accepted = inspect.signature(cls).parameters
     for key, value in given.items():
         if key not in accepted:
@@ -579,7 +582,8 @@ def write_report(out_dir, case, exact, tasks, rows, reference):
               f"min density {min(r['rho_min'] for r in rows):.3g}, "
               f"max density {max(r['rho_max'] for r in rows):.12g}, "
               f"min pressure {min(r['p_min'] for r in rows):.3g}.", "",
-              "Plots: `error_vs_h.png`, `error_vs_time.png`.", ""]
+              "Plots: `error_vs_h.png`, `error_vs_time.png`"
+              + (" and `frontier.png` (with the published reference figures)." if reference else "."), ""]
     text = "\n".join(lines)
     (out_dir / "convergence.md").write_text(text)
     final = [r for r in rows if r["time"] == max(x["time"] for x in rows)]
@@ -589,10 +593,16 @@ def write_report(out_dir, case, exact, tasks, rows, reference):
     plot(out_dir / "error_vs_time.png", final, metrics, "wall_seconds",
          "run time (s): setup + time stepping, no output", f"{title}\nerror vs run time at t = "
          f"{final[0]['time']:g}", reference=reference)
+    published = [m for m in metrics if any(metric == m for _, metric in reference)]
+    if published:   # the frontier: the metrics of the published reference, larger
+        plot(out_dir / "frontier.png", final, published, "wall_seconds",
+             "run time (s): setup + time stepping, no output",
+             f"{title}\nerror vs run time at t = {final[0]['time']:g}, with the published reference",
+             reference=reference, size=(6.4, 4.8))
     return text
 
 
-def plot(path, rows, metrics, x, xlabel, title, slopes=False, reference=None):
+def plot(path, rows, metrics, x, xlabel, title, slopes=False, reference=None, size=(4.2, 3.6)):
     """One log-log panel per metric, one line per series (plus published reference curves)."""
     import matplotlib
     matplotlib.use("Agg")
@@ -601,7 +611,7 @@ def plot(path, rows, metrics, x, xlabel, title, slopes=False, reference=None):
 
     ncol = min(len(metrics), 4)
     nrow = -(-len(metrics) // ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol, 3.6 * nrow + 0.8), squeeze=False)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(size[0] * ncol, size[1] * nrow + 0.8), squeeze=False)
     series = list(dict.fromkeys(r["series"] for r in rows))
     for ax, metric in zip(axes.flat, metrics):
         for s in series:
@@ -625,7 +635,7 @@ def plot(path, rows, metrics, x, xlabel, title, slopes=False, reference=None):
         ax.grid(True, which="both", lw=0.3)
         ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         if ax.get_legend_handles_labels()[0]:
-            ax.legend(fontsize=6)
+            ax.legend(fontsize=6 if size[0] < 5 else 7)
     for ax in list(axes.flat)[len(metrics):]:
         ax.set_visible(False)
     fig.suptitle(title, fontsize=10)

@@ -8,6 +8,7 @@ Densities are stored scaled by rho_max (rho = 1 is saturation); setup and I/O
 convert to the user's unit.
 """
 
+import functools
 import time
 from collections import defaultdict
 
@@ -17,12 +18,15 @@ from .projection import Projection, cell_mean, velocity_correction
 from .transport import MUSCLTransport, UpwindTransport, exit_matrix
 
 SATURATED = 1.0 - 1e-9  # rho above this counts as saturated (the solver tolerance)
+#: [scheme] transport: order-0 upwind; linear reconstruction + SSP-RK2; the same with one Euler stage
+TRANSPORTS = {"upwind": UpwindTransport, "muscl": MUSCLTransport,
+              "compressive": functools.partial(MUSCLTransport, stages=1)}
 
 
 class MacroSolver:
     """State (t, rho, p, evacuated, evacuated per exit group) and one catching-up step."""
 
-    def __init__(self, domain, velocity, rho0, cfl=0.5, dt=None, projection=None, order=0):
+    def __init__(self, domain, velocity, rho0, cfl=0.5, dt=None, projection=None, transport="upwind"):
         self.domain, self.velocity = domain, velocity
         self.cfl, self.fixed_dt = cfl, dt
         self.t, self.step_count = 0.0, 0
@@ -34,7 +38,7 @@ class MacroSolver:
         self.initial_mass = self.mass
         self.projection = projection or Projection(domain)
         self.exit_transmissibility = exit_matrix(domain, domain.transmissibility)  # outflow T_e phi_K
-        self.transport_class = (UpwindTransport, MUSCLTransport)[order]  # [scheme] order
+        self.transport_class = TRANSPORTS[transport]  # [scheme] transport
         self.transport = self.transport_class(domain, velocity.normal_on_facets(0.0))
         self.timers = defaultdict(float)
 

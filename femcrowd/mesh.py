@@ -9,11 +9,8 @@ transmissibilities T_e = |e| / d_e of the pressure Laplacian (design note,
 a wall; holes in the mesh are obstacles.
 """
 
-import contextlib
-import contextlib
 import difflib
 import hashlib
-import io
 from pathlib import Path
 
 import meshio

@@ -18,11 +18,20 @@ import numpy as np
 from .errors import InputError
 
 MARKER = ".femcrowd-run"
-OWN_FILES = ("*.vtu", "*.pvd", "history.csv", "summary.json", "case.toml", "*.csv", "*.png", "*.gif", "*.mp4", "*.md")
+#: what a run (and `femcrowd plot` on it) writes: cleared when a new run replaces an old one
+OWN_FILES = ("solution_*.vtu", "discs_*.vtu", "solution.pvd", "discs.pvd", "history.csv", "summary.json",
+             "case.toml", "density_t*.png", "pressure_t*.png", "discs_t*.png", "density.gif", "discs.gif",
+             "density.mp4", "discs.mp4", "curves.png")
 
 
 def prepare_output_dir(path, case_file, force=False):
-    """Create the output directory, or clear a previous femcrowd run in it; refuse foreign ones."""
+    """Create the output directory, or clear a previous femcrowd run in it; refuse foreign ones.
+
+    The marker that allows a later run to clear the directory is only left where
+    femcrowd owns the directory (new, empty, or marked): after --force into a
+    foreign directory the next run needs --force again, so femcrowd never
+    deletes a file it did not write.
+    """
     path = Path(path)
     if path.exists() and not path.is_dir():
         raise InputError(case_file, "output.dir", str(path), "exists and is not a directory")
@@ -34,11 +43,13 @@ def prepare_output_dir(path, case_file, force=False):
         path.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise InputError(case_file, "output.dir", str(path), f"cannot create: {err.strerror}") from None
-    if (path / MARKER).exists():
+    owned = (path / MARKER).exists()
+    if owned:
         for pattern in OWN_FILES:
             for old in path.glob(pattern):
                 old.unlink()
-    (path / MARKER).write_text("written by femcrowd; safe to overwrite with a new run\n")
+    elif not any(path.iterdir()):
+        (path / MARKER).write_text("written by femcrowd; safe to overwrite with a new run\n")
     return path
 
 

@@ -46,7 +46,7 @@ def setup_macro(case):
     tic = time.perf_counter()
     projection = Projection(domain, case["projection"]["direct_max"], case["projection"]["tol"])
     solver = MacroSolver(domain, velocity, rho0, case["time"]["cfl"], case["time"]["dt"], projection,
-                         case["scheme"]["order"])
+                         case["scheme"]["transport"])
     timing["assembly"] = time.perf_counter() - tic
     if case["time"]["dt"] is not None and case["time"]["dt"] > solver.transport.max_dt:
         raise InputError(case.file, "time.dt", case["time"]["dt"],

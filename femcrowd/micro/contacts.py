@@ -342,10 +342,12 @@ def _wall_gap(q, r, i, p):
 class CandidateList:
     """Disc-disc and disc-wall pairs whose gap is <= ``skin`` at the build.
 
-    ``path`` accumulates the path length travelled by each disc since the
-    build; the list is exact (contains every pair that can touch, and every
-    linearised constraint that can be violated) while the two largest path
-    lengths sum to less than ``skin`` (see :meth:`valid_after`).
+    With s_i = |q_i - q_i(build)| + tau |u_i| (displacement since the build
+    plus the move of the step), an unlisted pair has D_ij(q) + tau G_ij . u
+    >= D_ij(build) - s_i - s_j > 0 (triangle inequality), so the list is exact
+    (it contains every pair that can touch or whose linearised constraint can
+    bind) while the two largest s_i sum to less than ``skin``
+    (:meth:`travel_ok`; a wall pair needs s_i < skin).
     """
 
     def __init__(self, q, r, walls: WallSet | None, skin: float):
@@ -353,7 +355,7 @@ class CandidateList:
         r = np.asarray(r, float)
         N = len(q)
         self.skin = float(skin)
-        self.path = np.zeros(N)
+        self.q_ref = q.copy()
         self.nwalls = 0 if walls is None else walls.n
         if N == 0:
             self.pi = self.pj = self.wi = self.ws = np.zeros(0, np.intp)
@@ -382,13 +384,16 @@ class CandidateList:
         W = max(self.nwalls, 1)
         return np.concatenate([self.pi * N + self.pj, -1 - (self.wi * W + self.ws)])
 
-    def travel_ok(self, extra=None) -> bool:
-        """True while no pair outside the list can touch (two largest paths < skin)."""
-        p = self.path if extra is None else self.path + extra
+    def travel_ok(self, q, step=None) -> bool:
+        """True if the list covers a move from q by ``step`` (per-disc lengths)."""
+        dq = q - self.q_ref
+        p = np.sqrt(np.einsum("ij,ij->i", dq, dq))
+        if step is not None:
+            p += step
         if len(p) < 2:
             return len(p) == 0 or p[0] < self.skin  # only walls
         two = np.partition(p, len(p) - 2)[-2:]
-        return bool(two.sum() < self.skin and two.max() < self.skin)
+        return bool(two.sum() < self.skin)
 
     def constraints(self, q, r, walls: WallSet | None) -> Constraints:
         """Gaps and unit vectors of all listed rows at configuration q."""
@@ -408,5 +413,5 @@ class CandidateList:
         kw = keep_mask[self.wi]
         self.pi, self.pj = newidx[self.pi[kp]], newidx[self.pj[kp]]
         self.wi, self.ws = newidx[self.wi[kw]], self.ws[kw]
-        self.path = self.path[keep_mask]
+        self.q_ref = self.q_ref[keep_mask]
         return np.concatenate([kp, kw])

@@ -198,7 +198,7 @@ def _ssn_alm(C: Constraints, U, d, lam, atol, max_iter, rho, backend):
             break
         z = lam - rho * r2
         if not forced:
-            act = z > eta if act is None else (z > eta) | ((z > -eta) & act)
+            act = z > eta if act is None else (z > eta) | ((z > 0) & act)
         # Newton step for phi(.; lam): H_A delta = r1 + B^T(rho r2 on A, lam off A)
         rhs = r1 + C.rmatvec(np.where(act, rho * r2, lam))
         if fact_act is None or not np.array_equal(act, fact_act):
@@ -220,7 +220,7 @@ def _ssn_alm(C: Constraints, U, d, lam, atol, max_iter, rho, backend):
         v = v + alpha * delta
         r2n = r2 - alpha * w  # incremental: d - B v_new
         zn = lam - rho * r2n
-        new_act = (zn > eta) | ((zn > -eta) & act)
+        new_act = (zn > eta) | ((zn > 0) & act)
         if alpha == 1.0 and np.array_equal(new_act, act):
             # v minimises phi(.; lam) on this piece: multiplier update
             lam = np.maximum(np.where(act, zn, 0.0), 0.0)

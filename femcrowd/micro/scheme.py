@@ -210,13 +210,14 @@ class MicroSimulation:
         U = self.desired_velocity() if N else np.zeros((0, 2))
         rebuilds = 0
         if N and self.cl is None:
-            self._rebuild(self._skin if self._skin is not None else self._default_skin(U))
+            self._base_skin = self._skin if self._skin is not None else self._default_skin(U)
+            self._rebuild(self._base_skin)
             rebuilds += 1
         if N:
             # proactive rebuild if the predicted move may leave the list's validity range
             speed = np.sqrt(np.maximum((U * U).sum(1), (self.u * self.u).sum(1)))
-            if not self.cl.travel_ok(tau * speed):
-                self._rebuild(max(self.cl.skin, 2.5 * tau * float(speed.max())))
+            if not self.cl.travel_ok(self.q, tau * speed):
+                self._rebuild(max(self._base_skin, 2.5 * tau * float(speed.max())))
                 rebuilds += 1
             for attempt in range(6):
                 C = self.constraints()
@@ -224,16 +225,15 @@ class MicroSimulation:
                 res = project(C, U, d, method=self.method, lam0=self.lam, tol=self.tol,
                               max_iter=self.max_iter, backend=self.backend)
                 moved = tau * np.sqrt((res.u * res.u).sum(1))
-                if self.cl.travel_ok(moved):
+                if self.cl.travel_ok(self.q, moved):
                     break
-                self._rebuild(max(2 * self.cl.skin, 2.5 * float(moved.max())))
+                self._rebuild(max(self._base_skin, 2.5 * float(moved.max())))
                 rebuilds += 1
             else:  # pragma: no cover - would need an unbounded velocity
                 raise RuntimeError("candidate list could not cover the step")
             u, lam = res.u, res.lam
             pressure = C.per_disc_sum(lam)
             contacts = res.active
-            self.cl.path += moved
             q_new = self.q + tau * u
         else:
             u = np.zeros((0, 2))
