@@ -226,7 +226,7 @@ def test_output_dir_that_is_a_file(tmp_path):
 
 def test_foreign_output_dir_needs_force(tmp_path):
     """A directory femcrowd did not write is refused, untouched; --force writes into it (and keeps
-    the foreign file); the next run may then replace femcrowd's own files without --force."""
+    the foreign file); it stays foreign, so the next run needs --force again."""
     case = write_case(tmp_path, BASE, GOOD_MESH)
     out = tmp_path / "mine"
     out.mkdir()
@@ -240,7 +240,8 @@ def test_foreign_output_dir_needs_force(tmp_path):
     assert result.exit_code == 0, result.output
     assert (out / "notes.txt").read_text() == "keep me\n" and (out / "summary.json").is_file()
     result = CliRunner().invoke(main, ["run", str(case), "--out", str(out), "-q"])
-    assert result.exit_code == 0, result.output
+    assert result.exit_code == 2
+    assert (out / "notes.txt").read_text() == "keep me\n"
 
 
 SUBPROCESS = ["missing mesh file", "3D mesh", "import", "TOML syntax error", "not a mesh file", "cfl > 1"]
