@@ -74,7 +74,7 @@ def towards_exits(exits, r):
 def hex_crowd(L, n, r, seed=0, spacing=None):
     """n discs of radius r on a jittered hexagonal lattice filling [0, L]^2."""
     rng = np.random.default_rng(seed)
-    s = spacing or np.sqrt(L * L / (n * np.sqrt(3) / 2)) * 0.98
+    s = spacing or np.sqrt(L * L / (n * np.sqrt(3) / 2)) * 0.95
     s = max(s, 2 * r * 1.02)
     xs = np.arange(r * 1.01, L - r * 1.01, s)
     ys = np.arange(r * 1.01, L - r * 1.01, s * np.sqrt(3) / 2)

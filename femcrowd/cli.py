@@ -71,27 +71,35 @@ def run(case_dir, overrides, out, force, quiet):
     """Run the case in CASE_DIR (a directory with case.toml).
 
     \b
-    Example:
+    Examples:
       femcrowd run cases/room --set time.end=5 --out /tmp/room
+      femcrowd run cases/narrow-door-micro        (model.type = "micro": discs)
     """
-    from .run import run_macro
-
     case = load_case(case_dir, overrides)
-    summary = run_macro(case, out, force, quiet)
-    out_dir = summary["output_dir"]
-    click.echo(f"{summary['status']}: {summary['steps']} steps to t = {summary['final_time']:.4g} s "
-               f"in {summary['timing']['wall']:.1f} s; mass error {summary['mass_error']:.1e}; "
-               f"density in [{summary['min_density_ever']:.3g}, {summary['max_density_ever']:.6g}]")
+    if case["model"]["type"] == "micro":
+        from .micro.run import run_micro
+
+        summary = run_micro(case, out, force, quiet)
+        click.echo(f"{summary['status']}: {summary['steps']} steps to t = {summary['final_time']:.4g} s "
+                   f"in {summary['timing']['wall']:.1f} s; {summary['initial_count']} discs, "
+                   f"{summary['evacuated']} evacuated; max overlap {summary['max_overlap_over_radius']:.1e} r")
+    else:
+        from .run import run_macro
+
+        summary = run_macro(case, out, force, quiet)
+        click.echo(f"{summary['status']}: {summary['steps']} steps to t = {summary['final_time']:.4g} s "
+                   f"in {summary['timing']['wall']:.1f} s; mass error {summary['mass_error']:.1e}; "
+                   f"density in [{summary['min_density_ever']:.3g}, {summary['max_density_ever']:.6g}]")
     if summary["evacuation_time"] is not None:
         click.echo(f"evacuation time: {summary['evacuation_time']:.4g} s")
-    click.echo(f"results: {out_dir}")
-    click.echo(f"look at them: {_look(out_dir)}")
+    click.echo(f"results: {summary['output_dir']}")
+    click.echo(f"look at them: {_look(summary['output_dir'], case['model']['type'])}")
 
 
-def _look(out_dir):
+def _look(out_dir, model="macro"):
     """The commands that show a run directory's results."""
-    q = shlex.quote(str(out_dir))
-    return f"femcrowd plot {q}   (or ParaView: paraview {shlex.quote(str(Path(out_dir) / 'solution.pvd'))})"
+    pvd = Path(out_dir) / ("discs.pvd" if model == "micro" else "solution.pvd")
+    return f"femcrowd plot {shlex.quote(str(out_dir))}   (or ParaView: paraview {shlex.quote(str(pvd))})"
 
 
 def _times(values):
@@ -329,3 +337,33 @@ def stress(out, only, cases, force, checks):
                f"table: {root / 'stress.md'}, {root / 'stress.csv'}; runs: {root}/<scene>")
     if passed < len(results):
         sys.exit(1)
+
+
+@main.command()
+@click.argument("case_dir", type=click.Path())
+@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
+              help="Override a case key, e.g. --set micro.radius=0.25 (repeatable).")
+@click.option("--out", type=click.Path(), help="Output directory (default: [output].dir of the case).")
+@click.option("--force", is_flag=True, help="Write into a non-empty directory femcrowd did not create.")
+@click.option("-q", "--quiet", is_flag=True, help="No progress bars.")
+def compare(case_dir, overrides, out, force, quiet):
+    """Run CASE_DIR with the macro and the micro model on the same scene and compare them.
+
+    Writes OUT/macro, OUT/micro (the usual outputs), comparison.csv (people inside for both
+    models and the W2 distance between the crowds at each frame time), evacuation.png and
+    side-by-side pictures.
+
+    \b
+    Example:
+      femcrowd compare cases/narrow-door --out /tmp/narrow
+    """
+    from .compare import compare as run_comparison
+
+    result = run_comparison(load_case(case_dir, overrides), out, force, quiet)
+    last = result["rows"][-1]
+    for model in ("macro", "micro"):
+        t = result[model]["evacuation_time"]
+        click.echo(f"{model}: " + (f"evacuated in {t:.4g} s" if t is not None else
+                                   f"{last[model + '_inside']:.3g} of {result['discs']} people still "
+                                   f"inside at t = {last['time']:.4g} s"))
+    click.echo(f"results: {result['output_dir']} (comparison.csv, evacuation.png, side_by_side_*.png)")

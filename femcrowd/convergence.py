@@ -40,7 +40,7 @@ from scipy.spatial import cKDTree
 from .case import load_case
 from .errors import InputError
 from .exact import SOLUTIONS, RadialConcentration, SaturatedEvacuation, WallAccumulation
-from .macro import SATURATED
+from .macro import SATURATED, TRANSPORTS
 from .output import prepare_output_dir, write_json
 from .run import run_macro, setup_macro
 
@@ -161,6 +161,10 @@ def plan_study(case_dir, levels, overrides=(), cfls=(), set_values=(), times=())
                 extra.append(f"mesh.refine={base['mesh']['refine'] + level}")
                 mesh = f"{Path(base['mesh']['file']).name} refine {base['mesh']['refine'] + level}"
             case = load_case(case_dir, list(overrides) + extra)
+            limit = TRANSPORTS[case["scheme"]["transport"]].max_cfl
+            if case["time"]["cfl"] > limit:
+                raise InputError(case.file, "time.cfl", case["time"]["cfl"],
+                                 f"must be <= {limit:g} with scheme.transport = {case['scheme']['transport']!r}")
             tasks.append(Task(label, level, str(case_dir), tuple(overrides) + tuple(extra), measured,
                               exact is not None, case["time"]["cfl"], mesh, values=dict(combo)))
     return base, exact, tasks
@@ -560,7 +564,7 @@ def write_report(out_dir, case, exact, tasks, rows, reference):
                    "(which has no error of its own)")
     metrics = _metrics_present(rows)
     lines = [f"# Convergence study: {case['title'] or case.directory.name}", "",
-             f"Case `{case.file}`, reference: {against}.", "",
+             f"Case `{os.path.relpath(case.file)}`, reference: {against}.", "",
              "Each cell: error (observed order against the previous level). Run time = setup + "
              "time stepping, without output or measurement.", ""]
     for t in sorted({r["time"] for r in rows}):
@@ -633,7 +637,7 @@ def plot(path, rows, metrics, x, xlabel, title, slopes=False, reference=None, si
         ax.set_xlabel(xlabel, fontsize=8)
         ax.set_ylabel("error", fontsize=8)
         ax.grid(True, which="both", lw=0.3)
-        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.FuncFormatter(_minor_label))
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=6 if size[0] < 5 else 7)
     for ax in list(axes.flat)[len(metrics):]:
@@ -642,6 +646,12 @@ def plot(path, rows, metrics, x, xlabel, title, slopes=False, reference=None, si
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def _minor_label(x, pos):
+    """Label the minor log ticks 2 and 5 of each decade (the others stay unlabelled)."""
+    mantissa = x / 10 ** math.floor(math.log10(x) + 1e-9)
+    return f"{x:g}" if any(abs(mantissa - m) < 1e-6 for m in (2, 5)) else ""
 
 
 # ---------------------------------------------------------------------------------------------

@@ -8,19 +8,17 @@ Densities are stored scaled by rho_max (rho = 1 is saturation); setup and I/O
 convert to the user's unit.
 """
 
-import functools
 import time
 from collections import defaultdict
 
 import numpy as np
 
 from .projection import Projection, cell_mean, velocity_correction
-from .transport import MUSCLTransport, UpwindTransport, exit_matrix
+from .transport import CompressiveTransport, MUSCLTransport, UpwindTransport, exit_matrix
 
 SATURATED = 1.0 - 1e-9  # rho above this counts as saturated (the solver tolerance)
 #: [scheme] transport: order-0 upwind; linear reconstruction + SSP-RK2; the same with one Euler stage
-TRANSPORTS = {"upwind": UpwindTransport, "muscl": MUSCLTransport,
-              "compressive": functools.partial(MUSCLTransport, stages=1)}
+TRANSPORTS = {"upwind": UpwindTransport, "muscl": MUSCLTransport, "compressive": CompressiveTransport}
 
 
 class MacroSolver:

@@ -59,6 +59,7 @@ class Domain:
             self.exit[facets] = True
         self.wall = ~self.interior & ~self.exit
         self.transmissibility, self.non_delaunay, self.clipped = self._transmissibility()
+        self._finder = None
 
     @property
     def ncells(self):
@@ -82,6 +83,18 @@ class Domain:
         a, b, c = (self.points[self.triangles[:, k]] for k in range(3))
         pts = a[:, None] + lam[None, :, :1] * (b - a)[:, None] + lam[None, :, 1:] * (c - a)[:, None]
         return f(pts[..., 0], pts[..., 1], t).mean(axis=1)
+
+    def locate(self, xy):
+        """Index of the cell containing each point (n, 2), -1 outside the domain.
+
+        matplotlib's trapezoid-map finder rather than skfem's element_finder,
+        which raises for the whole batch when one point is outside."""
+        if self._finder is None:
+            import matplotlib.tri
+
+            self._finder = matplotlib.tri.Triangulation(
+                self.points[:, 0], self.points[:, 1], self.triangles).get_trifinder()
+        return self._finder(xy[:, 0], xy[:, 1]).astype(np.intp)
 
     def exit_edges(self):
         """Node pairs (E, 2) of the exit facets."""

@@ -52,7 +52,19 @@ def setup_macro(case):
         raise InputError(case.file, "time.dt", case["time"]["dt"],
                          f"exceeds the CFL limit {solver.transport.max_dt:.3g} s of the upwind transport, "
                          "above which densities can become negative (use a smaller dt, or time.cfl <= 1)")
+    _check_transport_cfl(case, solver.transport)
     return Scene(case, domain, velocity, solver, timing)
+
+
+def _check_transport_cfl(case, transport):
+    """The higher-order transports are oscillation-free only up to their own CFL number (max_cfl)."""
+    name, limit, dt = case["scheme"]["transport"], transport.max_cfl, case["time"]["dt"]
+    if dt is None and case["time"]["cfl"] > limit:
+        raise InputError(case.file, "time.cfl", case["time"]["cfl"],
+                         f"must be <= {limit:g} with scheme.transport = {name!r}")
+    if dt is not None and dt > limit * transport.max_dt:
+        raise InputError(case.file, "time.dt", dt, f"exceeds {limit:g} x the CFL limit "
+                         f"{transport.max_dt:.3g} s, the most scheme.transport = {name!r} allows")
 
 
 def desired_velocity(case, domain):
@@ -148,22 +160,36 @@ def run_macro(case, out=None, force=False, quiet=False):
         write_json(out_dir / "summary.json", summary)
         return summary
 
+    def advance(until):
+        history.append(record.add(solver, solver.step(until=until)))
+        return can_empty and solver.mass <= stop_mass
+
+    return drive(lambda: solver.t, advance, write_frame, finish, end, every, quiet)
+
+
+def drive(now, advance, write_frame, finish, end, every, quiet):
+    """The time loop shared by the macro and micro controllers.
+
+    ``advance(until)`` makes one step that does not pass ``until`` and returns
+    True when the domain is empty; steps land exactly on the frame times
+    (every ``every`` s) and on ``end``, a frame is written at t = 0, at each
+    frame time and at the last step. ``finish(status)`` writes summary.json
+    and is called whatever happens: "completed", "interrupted" (Ctrl-C) or
+    "failed: ..." (then the exception goes on to the caller).
+    """
     write_frame()
     next_frame = every
     bar = tqdm(total=end, disable=quiet, delay=2.0, unit="s", desc="simulated time",
                bar_format="{l_bar}{bar}| {n:.3g}/{total:.3g} s [{elapsed}<{remaining}]")
     try:
-        while solver.t < end:
+        while now() < end:
             target = min(next_frame, end)
-            t_before = solver.t
-            info = solver.step(until=target)
-            row = record.add(solver, info)
-            history.append(row)
-            bar.update(solver.t - t_before)
-            emptied = can_empty and solver.mass <= stop_mass
-            if solver.t >= target or emptied:
+            before = now()
+            emptied = advance(target)
+            bar.update(now() - before)
+            if now() >= target or emptied:
                 write_frame()
-                next_frame = next_frame + every if solver.t >= next_frame else next_frame
+                next_frame = next_frame + every if now() >= next_frame else next_frame
             if emptied:
                 break
     except KeyboardInterrupt:

@@ -52,16 +52,13 @@ class ExitsVelocity:
         v = speed(domain.centroid[:, 0], domain.centroid[:, 1], 0.0)
         self.cells = np.zeros((domain.ncells, 2))
         self.cells[ok] = -(v[ok] / norm[ok])[:, None] * grad[ok]
-        self._finder = None
 
     def at_cells(self, t=0.0):
         return self.cells
 
     def at_points(self, xy, t=0.0):
         """U of the triangle containing each point (0 outside the mesh)."""
-        if self._finder is None:
-            self._finder = self.domain.mesh.element_finder()
-        cell = self._finder(xy[:, 0], xy[:, 1])
+        cell = self.domain.locate(xy)
         return np.where((cell >= 0)[:, None], self.cells[np.maximum(cell, 0)], 0.0)
 
     def normal_on_facets(self, t=0.0):

@@ -161,3 +161,11 @@ def test_higher_order_transports_beat_upwind_on_the_corridor():
     assert [r["series"] for r in rows] == [f"scheme.transport={s}" for s in ("upwind", "muscl", "compressive")]
     upwind, muscl, compressive = (r["l1"] for r in rows)
     assert muscl < 0.5 * upwind and compressive < 0.5 * muscl
+
+
+@pytest.mark.parametrize("transport", ["muscl", "compressive"])
+def test_higher_order_transports_refuse_a_cfl_above_their_limit(transport):
+    with pytest.raises(InputError, match="time.cfl"):
+        setup_macro(load_case(CASES / "radial", [f"scheme.transport={transport}", "time.cfl=0.8"]))
+    with pytest.raises(InputError, match="time.cfl"):
+        plan_study(CASES / "radial", 2, cfls=(0.5, 0.8), set_values=[f"scheme.transport={transport}"])

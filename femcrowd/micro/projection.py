@@ -77,7 +77,7 @@ def project(
     lam0=None,
     tol: float = 1e-12,
     max_iter: int | None = None,
-    rho: float = 1e6,
+    rho: float = 1e4,
     nu: float | None = None,
     backend: str | None = None,
 ) -> ProjectionResult:
@@ -139,6 +139,8 @@ def _line_search(v, U, delta, z, w, rho):
     act0 = (z > 0) | ((z == 0) & (w > 0))
     C0 = p0 + float(np.dot(z[act0], w[act0]))
     C1 = p1 + rho * float(np.dot(w[act0], w[act0]))
+    if C0 >= 0:  # not a descent direction (round-off level gradient)
+        return 0.0
     with np.errstate(divide="ignore", invalid="ignore"):
         t = -z / (rho * w)
     ev = np.flatnonzero((t > 0) & (t < 1) & (w != 0))
@@ -174,19 +176,44 @@ def _ssn_alm(C: Constraints, U, d, lam, atol, max_iter, rho, backend):
     N, m = C.N, C.m
     if m == 0:
         return ProjectionResult(U.copy(), lam, 0, 0, 0.0, True, "exact")
-    eta = 0.1 * rho * atol  # |z| below eta: sign decided by the previous set
+    scale = max(1.0, float(np.abs(U).max()), float(np.abs(d[np.isfinite(d)]).max(initial=0.0)))
+    # |z| below eta is round-off (z = lam + rho (B v - d) carries rho * eps * |B v|)
+    eta = 1e3 * rho * np.finfo(float).eps * scale
+    gtol = min(0.5 * atol, max(1e-2 * atol, 1e-3 * eta))  # inner gradient at round-off
     if np.any(lam > 0):
         v = U - C.rmatvec(lam)
-        act = lam > 0
-        forced = True
+        forced = lam > 0
     else:
         v = U.copy()
-        act = None
-        forced = False
+        forced = None
     fact = fact_act = discs = None
     nfact = it = 0
     converged = False
     kkt = np.inf
+    prev_step = None  # last multiplier increment (drift detection)
+
+    def update(lam, z, act):
+        """Multiplier update lam <- [z]_+ on A; when two successive increments are
+        equal (inconsistent active set: lam drifts along a self-stress, B^T dlam = 0,
+        at rate rho * residual), jump along the drift to the first lam_i = 0."""
+        nonlocal prev_step
+        new = np.maximum(np.where(act, z, 0.0), 0.0)
+        step = new - lam
+        if prev_step is not None:
+            ds = np.abs(step - prev_step).max()
+            sm = np.abs(step).max()
+            dec = step < 0
+            if sm > 0 and ds <= 1e-3 * sm and np.any(dec & (new > 0)):
+                ratio = new[dec] / -step[dec]
+                t = float(ratio.min())
+                if t > 1.0:
+                    new = np.maximum(new + t * step, 0.0)
+                    new[np.flatnonzero(dec)[np.argmin(ratio)]] = 0.0
+                    prev_step = None
+                    return new
+        prev_step = step
+        return new
+
     while True:
         r1 = U - v - C.rmatvec(lam)
         r2 = d - C.matvec(v)
@@ -197,35 +224,51 @@ def _ssn_alm(C: Constraints, U, d, lam, atol, max_iter, rho, backend):
         if it >= max_iter:
             break
         z = lam - rho * r2
-        if not forced:
-            act = z > eta if act is None else (z > eta) | ((z > 0) & act)
-        # Newton step for phi(.; lam): H_A delta = r1 + B^T(rho r2 on A, lam off A)
+        act = forced if forced is not None else z > 0
+        # Newton matrix set: the active rows; a row whose z is round-off keeps its
+        # previous status (both are generalised Hessians; flipping would zigzag)
+        if forced is not None or fact_act is None:
+            hact = act
+        else:
+            hact = (z > eta) | ((z > -eta) & fact_act)
+        # Newton step for phi(.; lam): H_A delta = -grad phi = r1 + B^T(rho r2 on A, lam off A)
         rhs = r1 + C.rmatvec(np.where(act, rho * r2, lam))
-        if fact_act is None or not np.array_equal(act, fact_act):
-            if np.any(act):
-                discs, rows, cols, vals = _hessian(C, act, rho)
+        # the factor is reused when A differs from its set only in round-off rows
+        # (any SPD matrix gives a descent direction; the line search does the rest)
+        if fact_act is None or forced is not None or not np.array_equal(hact, fact_act):
+            if np.any(hact):
+                discs, rows, cols, vals = _hessian(C, hact, rho)
                 fact = factor_spd(rows, cols, vals, 2 * len(discs), backend)
                 nfact += 1
             else:
                 discs, fact = np.zeros(0, np.intp), None
-            fact_act = act
+            fact_act = hact
+        if np.abs(rhs).max() <= gtol and forced is None:
+            # phi(.; lam) is minimised to round-off: multiplier update
+            lam = update(lam, z, act)
+            continue
         delta = rhs
-        if fact is not None:
+        if fact is not None and len(discs):
             delta = rhs.copy()
             delta[discs] = fact.solve(rhs[discs].ravel()).reshape(-1, 2)
         it += 1
+        if forced is None and np.abs(delta).max() <= 1e-2 * atol:
+            # the Newton step is at round-off: phi(.; lam) is minimised, update lam
+            lam = update(lam, z, act)
+            continue
         w = C.matvec(delta)
-        alpha = 1.0 if forced else _line_search(v, U, delta, z, w, rho)
-        forced = False
+        alpha = 1.0 if forced is not None else _line_search(v, U, delta, z, w, rho)
+        forced = None
+        if alpha <= 0.0:  # no descent left at round-off level: refactor exactly
+            fact_act = None
+            continue
         v = v + alpha * delta
         r2n = r2 - alpha * w  # incremental: d - B v_new
         zn = lam - rho * r2n
-        new_act = (zn > eta) | ((zn > 0) & act)
-        if alpha == 1.0 and np.array_equal(new_act, act):
+        new_act = zn > 0
+        if alpha == 1.0 and not np.any((new_act != act) & (np.abs(zn) > eta)):
             # v minimises phi(.; lam) on this piece: multiplier update
-            lam = np.maximum(np.where(act, zn, 0.0), 0.0)
-        else:
-            act = new_act
+            lam = update(lam, zn, act)
     return ProjectionResult(v, lam, it, nfact, float(kkt), converged, "exact")
 
 

@@ -95,7 +95,7 @@ def exit_crossings(q0, q1, exits) -> np.ndarray:
         if not cross.any():
             continue
         with np.errstate(invalid="ignore", divide="ignore"):
-            t = s0 / (s0 - s1)
+            t = np.where(cross, s0 / np.where(cross, s0 - s1, 1.0), 0.0)
         x = p0 + t[..., None] * (p1 - p0)
         mu = ((x - a) * ab).sum(-1) / (ab * ab).sum(-1)
         out[s : s + chunk] = (cross & (mu >= 0) & (mu <= 1)).any(axis=1)
