@@ -1,9 +1,10 @@
 """Benchmark of the microscopic (disc) model: room evacuation through one door.
 
-    python benchmarks/micro.py                 # N = 2000 (20 x 20 room, 2 m door) to the end
-    python benchmarks/micro.py --n 20000       # large crowd (63 x 63 room, 4 doors)
+    python benchmarks/micro.py                     # N = 2000 (20 x 20 room, 2 m door), 300 steps
+    python benchmarks/micro.py --steps 0           # ... until everybody is out
+    python benchmarks/micro.py --n 20000 --steps 40   # large crowd (63 x 63 room, 4 doors)
     python benchmarks/micro.py --method uzawa --steps 200
-    python benchmarks/micro.py --compare-solvers   # exact QP solvers on one jammed projection
+    python benchmarks/micro.py --compare-solvers --n 500   # QP solvers on one jammed projection
 
 Prints median / mean ms per step and the evacuation time. Reference: cromosim
 (Uzawa, same room) needs 58 ms/step for N = 2000.
@@ -76,17 +77,18 @@ def hex_crowd(L, n, r, seed=0, spacing=None):
     rng = np.random.default_rng(seed)
     s = spacing or np.sqrt(L * L / (n * np.sqrt(3) / 2)) * 0.95
     s = max(s, 2 * r * 1.02)
-    xs = np.arange(r * 1.01, L - r * 1.01, s)
-    ys = np.arange(r * 1.01, L - r * 1.01, s * np.sqrt(3) / 2)
+    jit = (s - 2 * r) * 0.45 / np.sqrt(2)  # per coordinate: neighbours never overlap
+    m = r + jit + 1e-3  # margin to the walls
+    xs = np.arange(m, L - m, s)
+    ys = np.arange(m, L - m, s * np.sqrt(3) / 2)
     X, Y = np.meshgrid(xs, ys)
     X = X + 0.5 * s * (np.arange(len(ys))[:, None] % 2)
     P = np.c_[X.ravel(), Y.ravel()]
-    P = P[(P[:, 0] <= L - r * 1.01)]
+    P = P[(P[:, 0] <= L - m)]
     if len(P) < n:
         raise ValueError(f"lattice has {len(P)} sites < {n}")
     P = P[rng.choice(len(P), n, replace=False)]
-    jit = (s - 2 * r) * 0.45
-    P += rng.uniform(-jit, jit, P.shape) / np.sqrt(2)
+    P += rng.uniform(-jit, jit, P.shape)
     return P
 
 
@@ -106,12 +108,13 @@ def main(argv=None):
     ap.add_argument("--n", type=int, default=2000)
     ap.add_argument("--radius", type=float, default=0.2)
     ap.add_argument("--tau", type=float, default=0.05)
-    ap.add_argument("--steps", type=int, default=None, help="stop after this many steps")
+    ap.add_argument("--steps", type=int, default=300, help="stop after this many steps (0: until empty)")
     ap.add_argument("--method", default="exact", choices=["exact", "uzawa"])
     ap.add_argument("--backend", default=None, help="cholmod | splu")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--compare-solvers", action="store_true")
     ap.add_argument("--profile", action="store_true")
+    ap.add_argument("--every", type=int, default=100, help="progress line every this many steps")
     args = ap.parse_args(argv)
     if args.compare_solvers:
         return compare_solvers(args)
@@ -125,6 +128,7 @@ def main(argv=None):
           f"method={args.method}, backend={args.backend or default_backend()}")
     times, info = [], None
     worst_overlap = worst_kkt = 0.0
+    not_conv = 0
     t0 = time.perf_counter()
     prof = None
     if args.profile:
@@ -132,13 +136,14 @@ def main(argv=None):
 
         prof = cProfile.Profile()
         prof.enable()
-    for info in sim.run(max_steps=args.steps):
+    for info in sim.run(max_steps=args.steps or None):
         times.append(info.step_seconds)
         worst_overlap = max(worst_overlap, info.max_overlap)
         worst_kkt = max(worst_kkt, info.kkt)
-        if info.step % 500 == 0:
+        not_conv += not info.converged
+        if info.step % args.every == 0:
             print(f"  t={info.time:7.2f} s  left={info.count:6d}  contacts={info.contacts:6d}  "
-                  f"it={info.solver_iterations:3d} fact={info.factorizations} "
+                  f"it={info.solver_iterations:3d} fact={info.factorizations:3d} kkt={info.kkt:.0e} "
                   f"step={1e3 * info.step_seconds:6.2f} ms", flush=True)
     wall = time.perf_counter() - t0
     if prof is not None:
@@ -151,7 +156,7 @@ def main(argv=None):
     print(f"median {np.median(times):.2f} ms/step   mean {times.mean():.2f}   p90 "
           f"{np.percentile(times, 90):.2f}   max {times.max():.1f}   wall {wall:.1f} s")
     print(f"max overlap ever {worst_overlap:.2e} m ({worst_overlap / args.radius:.1e} r), "
-          f"max KKT residual {worst_kkt:.1e}")
+          f"max KKT residual {worst_kkt:.1e}, steps not converged to tol: {not_conv}")
 
 
 def compare_solvers(args):
@@ -164,7 +169,7 @@ def compare_solvers(args):
     q = hex_crowd(L, args.n, args.radius, seed=args.seed)
     U = towards_exits(exits, args.radius)
     sim = MicroSimulation(q, args.radius, walls, exits, U, args.tau)
-    for info in sim.run(max_steps=int(round(8.0 / args.tau))):  # 8 s: crowd jammed at the door
+    for info in sim.run(max_steps=int(round(4.0 / args.tau))):  # 4 s: crowd jammed at the door
         pass
     C = sim.constraints()
     Ud = sim.desired_velocity()

@@ -35,14 +35,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import skfem
 from scipy.spatial import cKDTree
 
 from .case import load_case
 from .errors import InputError
 from .exact import SOLUTIONS, RadialConcentration, SaturatedEvacuation, WallAccumulation
 from .macro import SATURATED, TRANSPORTS
+from .mesh import Domain
 from .output import prepare_output_dir, write_json
-from .run import run_macro, setup_macro
+from .run import check_transport_cfl, run_macro, setup_macro
 
 METRICS = {
     "l1": "L1 density error",
@@ -91,7 +93,7 @@ def parse_set_values(items, file="--set-values"):
     for item in items:
         key, sep, text = (part.strip() for part in item.partition("="))
         if not sep or not key or not text:
-            raise InputError(file, item, None, "expected section.key=v1,v2,...")
+            raise InputError(file, None, None, f"expected section.key=v1,v2,... (got {item!r})")
         if text.startswith("["):
             try:
                 values = [json.dumps(v) if isinstance(v, str) else json.dumps(v).lower() if isinstance(v, bool)
@@ -161,10 +163,7 @@ def plan_study(case_dir, levels, overrides=(), cfls=(), set_values=(), times=())
                 extra.append(f"mesh.refine={base['mesh']['refine'] + level}")
                 mesh = f"{Path(base['mesh']['file']).name} refine {base['mesh']['refine'] + level}"
             case = load_case(case_dir, list(overrides) + extra)
-            limit = TRANSPORTS[case["scheme"]["transport"]].max_cfl
-            if case["time"]["cfl"] > limit:
-                raise InputError(case.file, "time.cfl", case["time"]["cfl"],
-                                 f"must be <= {limit:g} with scheme.transport = {case['scheme']['transport']!r}")
+            check_transport_cfl(case, TRANSPORTS[case["scheme"]["transport"]])
             tasks.append(Task(label, level, str(case_dir), tuple(overrides) + tuple(extra), measured,
                               exact is not None, case["time"]["cfl"], mesh, values=dict(combo)))
     return base, exact, tasks
@@ -174,7 +173,7 @@ def plan_study(case_dir, levels, overrides=(), cfls=(), set_values=(), times=())
 # running tasks: serial or through dask
 
 
-def execute(function, tasks, serial=False, scheduler=None, workers=None, echo=None):
+def execute(function, tasks, serial=False, scheduler=None, echo=None):
     """function(task) for every task, results in task order; through dask unless serial.
 
     Bigger runs are submitted with higher priority so that the longest one starts first.
@@ -196,7 +195,7 @@ def execute(function, tasks, serial=False, scheduler=None, workers=None, echo=No
     if scheduler:
         client, cluster = Client(scheduler), None
     else:
-        cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
+        cluster = LocalCluster(n_workers=os.cpu_count() or 1, threads_per_worker=1,
                                processes=True, dashboard_address=":0",
                                silence_logs=logging.ERROR)
         client = Client(cluster)
@@ -306,7 +305,7 @@ class ExactReference:
     def pressure(self, x, y, t):
         return self.exact.pressure(x, y, t)
 
-    def front(self, t, reader):
+    def front(self, t):
         return self.exact.front(t)
 
     def evacuated(self, t):
@@ -319,7 +318,6 @@ class LevelReference:
     coordinate = None
 
     def __init__(self, points, triangles, states, curve, has_exits):
-        self.points, self.triangles = points, triangles
         self.locator = Locator(points, triangles)
         self.states = {s["time"]: s for s in states}
         self.curve = curve
@@ -395,7 +393,7 @@ def measure(domain, state, reference, curve, locator=None):
         out.update(front_error=math.nan, w1=math.nan, w2=math.nan)
         return out
     reader = FrontReader(domain, locator, reference.coordinate)
-    out["front_error"] = reader(rho, reference.level) - reference.front(t, reader)
+    out["front_error"] = reader(rho, reference.level) - reference.front(t)
     out.update(_wasserstein(domain, rho, ref_rho, reference.coordinate))
     return out
 
@@ -481,9 +479,6 @@ def study(case_dir, levels, out=None, overrides=(), cfls=(), set_values=(), time
 def collect_rows(tasks, results):
     """One row per run and measurement time; self-convergence rows are measured here against the
     finest level of their series (which itself gets no error)."""
-    from .mesh import Domain
-    import skfem
-
     rows = []
     by_series = {}
     for task, result in zip(tasks, results):
@@ -514,7 +509,7 @@ def collect_rows(tasks, results):
 def observed_orders(rows, metric):
     """log(e_{i-1} / e_i) / log(h_{i-1} / h_i) between consecutive levels of the same series and time."""
     orders = {}
-    for key, group in itertools.groupby(sorted(rows, key=lambda r: (r["series"], r["time"], r["level"])),
+    for _, group in itertools.groupby(sorted(rows, key=lambda r: (r["series"], r["time"], r["level"])),
                                         key=lambda r: (r["series"], r["time"])):
         group = list(group)
         for prev, row in zip(group, group[1:]):
@@ -619,8 +614,8 @@ def plot(path, rows, metrics, x, xlabel, title, slopes=False, reference=None, si
     series = list(dict.fromkeys(r["series"] for r in rows))
     for ax, metric in zip(axes.flat, metrics):
         for s in series:
-            pts = sorted((r[x], abs(r[metric])) for r in rows if r["series"] == s and math.isfinite(r[metric])
-                         and r[metric] != 0)
+            pts = [(r[x], abs(r[metric])) for r in sorted(rows, key=lambda r: r["level"])   # in level order
+                   if r["series"] == s and math.isfinite(r[metric]) and r[metric] != 0]
             if pts:
                 ax.loglog(*zip(*pts), "o-", label=s)
         if slopes:

@@ -52,12 +52,14 @@ def setup_macro(case):
         raise InputError(case.file, "time.dt", case["time"]["dt"],
                          f"exceeds the CFL limit {solver.transport.max_dt:.3g} s of the upwind transport, "
                          "above which densities can become negative (use a smaller dt, or time.cfl <= 1)")
-    _check_transport_cfl(case, solver.transport)
+    check_transport_cfl(case, solver.transport)
     return Scene(case, domain, velocity, solver, timing)
 
 
-def _check_transport_cfl(case, transport):
-    """The higher-order transports are oscillation-free only up to their own CFL number (max_cfl)."""
+def check_transport_cfl(case, transport):
+    """The higher-order transports are oscillation-free only up to their own CFL number (max_cfl).
+
+    transport: the transport object, or its class when the case has no time.dt."""
     name, limit, dt = case["scheme"]["transport"], transport.max_cfl, case["time"]["dt"]
     if dt is None and case["time"]["cfl"] > limit:
         raise InputError(case.file, "time.cfl", case["time"]["cfl"],

@@ -40,7 +40,7 @@ class UpwindTransport:
         self.flux = sp.csr_matrix((vals, (rows, cols)), shape=(n, n))
         self.exit_rate = exit_matrix(domain, out0)  # outflow rate per exit group
         self.out0, self.out1 = out0, out1
-        self._update, self._update_dt = None, 0.0  # I + dt diag(1/|K|) F for the usual dt (see step)
+        self._update, self._update_dt = None, None  # I + dt diag(1/|K|) F for the usual dt (see step)
         outflow = np.bincount(k0, out0, n) + np.bincount(k1[inner], out1[inner], n)
         with np.errstate(divide="ignore"):
             self.max_dt = float(np.min(domain.area / outflow))  # inf when nothing moves
@@ -51,19 +51,24 @@ class UpwindTransport:
         For dt <= max_dt (CFL <= 1) every coefficient of the update is >= 0, so
         rho~ >= 0; the clip only removes round-off of order 1e-17 at CFL = 1.
 
-        A step is one mat-vec with the update matrix B = I + dt diag(1/|K|) F, built
-        for the largest dt seen; a shorter step (cut at an output time) is the convex
-        combination rho + (dt / dt_B) (B rho - rho), without rebuilding B.
+        From its second step on (a time-dependent U makes a new transport every
+        step), a step is one mat-vec with the update matrix B = I + dt diag(1/|K|) F,
+        built for the largest dt seen; a shorter step (cut at an output time) is the
+        convex combination rho + (dt / dt_B) (B rho - rho), without rebuilding B.
         """
-        if dt > self._update_dt:
-            self._update = (sp.identity(len(rho), format="csr")
-                            + sp.diags(dt / self.domain.area) @ self.flux).tocsr()
-            self._update_dt = dt
-        rho_t = self._update @ rho
-        if dt < self._update_dt:
-            rho_t -= rho
-            rho_t *= dt / self._update_dt
-            rho_t += rho
+        if self._update_dt is None:
+            self._update_dt = 0.0
+            rho_t = rho + (dt / self.domain.area) * (self.flux @ rho)
+        else:
+            if dt > self._update_dt:
+                self._update = (sp.identity(len(rho), format="csr")
+                                + sp.diags(dt / self.domain.area) @ self.flux).tocsr()
+                self._update_dt = dt
+            rho_t = self._update @ rho
+            if dt < self._update_dt:
+                rho_t -= rho
+                rho_t *= dt / self._update_dt
+                rho_t += rho
         np.maximum(rho_t, 0.0, out=rho_t)
         return rho_t, dt * (self.exit_rate @ rho)
 

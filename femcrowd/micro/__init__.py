@@ -10,6 +10,7 @@ Pure-array interface:
 
 from .contacts import CandidateList, Constraints, WallSet
 from .projection import ProjectionResult, kkt_residual, project
+from .sampling import read_discs_csv, sample_discs, target_count
 from .scheme import MicroSimulation, StepInfo, exit_crossings, run
 
 __all__ = [
@@ -23,4 +24,7 @@ __all__ = [
     "StepInfo",
     "exit_crossings",
     "run",
+    "read_discs_csv",
+    "sample_discs",
+    "target_count",
 ]

@@ -16,8 +16,9 @@ wall contact (``c = -n``); the projection then reads ``B v <= D / tau``
 Candidate rows come from KD-trees (scipy.spatial.cKDTree) and are kept as a
 Verlet list: every pair whose gap is at most ``skin`` when the list is built.
 A pair outside the list cannot touch (nor violate its linearised constraint)
-as long as the path lengths travelled since the build by its two discs sum to
-less than ``skin``; :class:`CandidateList` tracks this.
+as long as the displacements of its two discs since the build, plus their
+moves in the step, sum to less than ``skin``; :class:`CandidateList` checks
+this after every projection and the step is redone on a rebuilt list if not.
 """
 
 from __future__ import annotations

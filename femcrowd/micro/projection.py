@@ -7,19 +7,31 @@ Solves the sparse QP
 whose KKT system is seed 000 eq. (16): u + B^T lambda = U, B u <= d,
 lambda >= 0, (B u - d) . lambda = 0.
 
-``method="exact"`` (default): semismooth Newton on the augmented Lagrangian
-(proximal method of multipliers). For a multiplier estimate lambda the
-function ``phi(v) = 1/2 |v - U|^2 + 1/(2 rho) |[lambda + rho (B v - d)]_+|^2``
-is strongly convex and piecewise quadratic; its Newton matrix on the active
-set A = {lambda + rho (B v - d) > 0} is ``I + rho B_A^T B_A``, symmetric
-positive definite *whatever the rank of B_A* (jams with more contacts than
-degrees of freedom, seed 000 Fig. 3, make B B^T singular). Newton with an
-exact (piecewise-quadratic) line search terminates when the active set
-repeats; then lambda <- [lambda + rho (B v - d)]_+ (the multiplier update)
-and the loop goes on until the KKT residual is at round-off. The previous
-step's multipliers warm-start the active set, so a step in a slowly moving
-jam costs one or two sparse Cholesky factorisations (only the discs touched
-by active contacts enter the matrix: the connected clusters of contacts).
+``method="exact"`` (default), three stages, all exact up to round-off:
+
+1. Semismooth Newton on the augmented Lagrangian (proximal method of
+   multipliers), warm-started with the previous step's multipliers. For a
+   multiplier estimate lambda, ``phi(v) = 1/2 |v - U|^2 + 1/(2 rho)
+   |[lambda + rho (B v - d)]_+|^2`` is strongly convex and piecewise
+   quadratic; its Newton matrix ``I + rho B_A^T B_A`` (A = {lambda + rho
+   (B v - d) > 0}) is symmetric positive definite *whatever the rank of B_A*
+   (jams with more contacts than degrees of freedom, seed 000 Fig. 3, make
+   B B^T singular). Exact piecewise line search; multiplier update when phi
+   is minimised; residuals and multipliers are updated in increment form so
+   the KKT residual reaches round-off although rho is large; when an
+   inconsistent (hyperstatic) active set makes lambda drift along a
+   self-stress (B^T dlambda = 0), the drift is extrapolated to the first
+   lambda_i = 0. Sparse Cholesky (CHOLMOD) with one symbolic analysis per
+   sparsity pattern; only discs touched by active rows enter the matrix.
+2. If stage 1 needs more than ``max_fact`` factorisations (many contacts
+   changing at once: a crowd compacting), a primal-dual interior point
+   method (Mehrotra) finds the active set in ~20-35 factorisations of
+   ``I + B^T diag(lambda / s) B`` (one pattern).
+3. Stage 1 again from the interior-point active set (polish).
+
+Rows that the desired motion cannot reach are left out of the solve and
+checked afterwards (added back if violated): the result is the projection
+on the full candidate set.
 
 ``method="uzawa"``: seed 000 eq. (17), projected gradient on the dual with
 a fixed step nu < 2 / ||B||^2, kept for comparison (slow in jams: its rate
@@ -33,7 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .contacts import Constraints
-from .linalg import default_backend, factor_spd
+from .linalg import PatternFactor, default_backend
 
 __all__ = ["ProjectionResult", "project", "kkt_residual"]
 
@@ -80,20 +92,49 @@ def project(
     rho: float = 1e4,
     nu: float | None = None,
     backend: str | None = None,
+    max_fact: int = 10,
 ) -> ProjectionResult:
     """Project U (N, 2) on {v : B v <= d} (seed 000 eq. 15-16).
 
     tol is relative to max(1, max|U|); lam0 warm-starts the multipliers.
+    method "exact": warm-started semismooth Newton; if it needs more than
+    max_fact factorisations, an interior point method locates the active
+    set and the semismooth Newton polishes (see :func:`_exact`).
     """
     U = np.asarray(U, dtype=float).reshape(C.N, 2)
     d = np.asarray(d, dtype=float).reshape(C.m)
     lam = np.zeros(C.m) if lam0 is None else np.maximum(np.asarray(lam0, float).reshape(C.m), 0.0)
     atol = tol * max(1.0, float(np.abs(U).max()) if C.N else 1.0)
     if method == "exact":
-        return _ssn_alm(C, U, d, lam, atol, max_iter or 200, rho, backend or default_backend())
-    if method == "uzawa":
-        return _uzawa(C, U, d, lam, atol, max_iter or 100_000, nu)
-    raise ValueError(f"unknown projection method {method!r} (exact, uzawa)")
+        solve = lambda Cw, dw, lw: _exact(Cw, U, dw, lw, atol, max_iter, rho,  # noqa: E731
+                                          backend or default_backend(), max_fact)
+    elif method == "uzawa":
+        solve = lambda Cw, dw, lw: _uzawa(Cw, U, dw, lw, atol, max_iter or 100_000, nu)  # noqa: E731
+    else:
+        raise ValueError(f"unknown projection method {method!r} (exact, uzawa)")
+    if C.m == 0:
+        return solve(C, d, lam)
+    # working set: rows that the desired motion can reach (|B_i v| <= |v_i| + |v_j|);
+    # the others are checked afterwards and added if violated, so the result is the
+    # projection on the full set.
+    speed = np.sqrt((U * U).sum(1))
+    reach = np.concatenate([speed[C.pi] + speed[C.pj], speed[C.wi]])
+    W = (d <= 2.0 * reach + atol) | (lam > 0)
+    total_it = total_fact = 0
+    lam_full = lam.copy()
+    for _ in range(50):
+        Cw = C.subset(W) if not W.all() else C
+        res = solve(Cw, d[W], lam_full[W])
+        total_it += res.iterations
+        total_fact += res.factorizations
+        lam_full = np.zeros(C.m)
+        lam_full[np.flatnonzero(W)] = res.lam
+        viol = ~W & (C.matvec(res.u) - d > atol)
+        if not viol.any():
+            break
+        W = W | viol
+    kkt = kkt_residual(C, U, d, res.u, lam_full)
+    return ProjectionResult(res.u, lam_full, total_it, total_fact, kkt, kkt <= atol, res.method)
 
 
 # --------------------------------------------------------------------------
@@ -101,32 +142,61 @@ def project(
 # --------------------------------------------------------------------------
 
 
-def _hessian(C: Constraints, act, rho):
-    """Lower triangle (COO) of I + rho B_A^T B_A on the discs touched by A."""
-    pa, wa = act[: C.mp], act[C.mp :]
-    pi, pj, cp = C.pi[pa], C.pj[pa], C.cp[pa]
-    wi, cw = C.wi[wa], C.cw[wa]
-    discs = np.unique(np.concatenate([pi, pj, wi]))
-    n = len(discs)
-    idx = np.full(C.N, -1, dtype=np.intp)
-    idx[discs] = np.arange(n)
-    a, b, w = idx[pi], idx[pj], idx[wi]
-    # diagonal blocks
-    nodes = np.concatenate([a, b, w])
-    c = np.concatenate([cp, cp, cw])
-    xx, xy, yy = rho * c[:, 0] ** 2, rho * c[:, 0] * c[:, 1], rho * c[:, 1] ** 2
-    # off-diagonal blocks (strictly lower: block row hi > block col lo)
-    hi, lo = np.maximum(a, b), np.minimum(a, b)
-    pxx, pxy, pyy = -rho * cp[:, 0] ** 2, -rho * cp[:, 0] * cp[:, 1], -rho * cp[:, 1] ** 2
-    k = np.arange(n)
-    rows = np.concatenate(
-        [2 * nodes, 2 * nodes + 1, 2 * nodes + 1, 2 * hi, 2 * hi, 2 * hi + 1, 2 * hi + 1, 2 * k, 2 * k + 1]
-    )
-    cols = np.concatenate(
-        [2 * nodes, 2 * nodes, 2 * nodes + 1, 2 * lo, 2 * lo + 1, 2 * lo, 2 * lo + 1, 2 * k, 2 * k + 1]
-    )
-    vals = np.concatenate([xx, xy, yy, pxx, pxy, pxy, pyy, np.ones(2 * n)])
-    return discs, rows, cols, vals
+class _NewtonMatrix:
+    """I + rho B_A^T B_A for active sets A inside a row superset S.
+
+    The pattern is that of S (symbolic factorisation once); the rows of S
+    outside A enter with weight 0, so a change of A costs one numeric
+    factorisation only.
+    """
+
+    def __init__(self, C: Constraints, S, rho, backend):
+        self.S = S.copy()
+        rs = np.flatnonzero(S)
+        p = rs[rs < C.mp]
+        wr = rs[rs >= C.mp] - C.mp
+        pi, pj, cp = C.pi[p], C.pj[p], C.cp[p]
+        wi, cw = C.wi[wr], C.cw[wr]
+        discs = np.unique(np.concatenate([pi, pj, wi]))
+        n = len(discs)
+        idx = np.full(C.N, -1, dtype=np.intp)
+        idx[discs] = np.arange(n)
+        a, b, w = idx[pi], idx[pj], idx[wi]
+        nodes = np.concatenate([a, b, w])
+        src_d = np.concatenate([p, p, C.mp + wr])
+        c = np.concatenate([cp, cp, cw])
+        hi, lo = np.maximum(a, b), np.minimum(a, b)
+        k = np.arange(n)
+        rows = np.concatenate(
+            [2 * nodes, 2 * nodes + 1, 2 * nodes + 1, 2 * hi, 2 * hi, 2 * hi + 1, 2 * hi + 1, 2 * k, 2 * k + 1])
+        cols = np.concatenate(
+            [2 * nodes, 2 * nodes, 2 * nodes + 1, 2 * lo, 2 * lo + 1, 2 * lo, 2 * lo + 1, 2 * k, 2 * k + 1])
+        self.base = np.concatenate(
+            [rho * c[:, 0] ** 2, rho * c[:, 0] * c[:, 1], rho * c[:, 1] ** 2,
+             -rho * cp[:, 0] ** 2, -rho * cp[:, 0] * cp[:, 1], -rho * cp[:, 0] * cp[:, 1], -rho * cp[:, 1] ** 2,
+             np.ones(2 * n)])
+        self.src = np.concatenate([src_d, src_d, src_d, p, p, p, p, np.full(2 * n, -1)])
+        self.discs = discs
+        self.fact = PatternFactor(rows, cols, 2 * n, backend) if n else None
+
+    def covers(self, act):
+        return not np.any(act & ~self.S)
+
+    def factor(self, act):
+        """Numeric factorisation of I + rho B_A^T B_A (act: boolean rows, or
+        non-negative row weights w giving I + rho B^T diag(w) B)."""
+        if self.fact is not None:
+            wts = np.where(self.src >= 0, np.asarray(act, float)[np.maximum(self.src, 0)], 1.0)
+            self.fact.numeric(self.base * wts)
+
+
+def _psolve(fact, discs, x):
+    """Apply the factorised Newton matrix's inverse (identity off its discs)."""
+    if fact is None or len(discs) == 0:
+        return x.copy()
+    y = x.copy()
+    y[discs] = fact.solve(x[discs].ravel()).reshape(-1, 2)
+    return y
 
 
 def _line_search(v, U, delta, z, w, rho):
@@ -165,7 +235,7 @@ def _line_search(v, U, delta, z, w, rho):
     return float(min(max(-c0[k] / c1[k], lo), ends[k]))
 
 
-def _ssn_alm(C: Constraints, U, d, lam, atol, max_iter, rho, backend):
+def _ssn_alm(C: Constraints, U, d, lam, atol, max_iter, rho, backend, max_fact=None):
     """Semismooth Newton / multiplier iterations in incremental (refinement) form.
 
     The residuals r1 = U - v - B^T lam and r2 = d - B v are evaluated without
@@ -191,6 +261,11 @@ def _ssn_alm(C: Constraints, U, d, lam, atol, max_iter, rho, backend):
     converged = False
     kkt = np.inf
     prev_step = None  # last multiplier increment (drift detection)
+    hprev = None
+    newton = None
+    # rows that may become active: warm-start set and rows U pushes within reach
+    BU = C.matvec(U)
+    superset = (lam > 0) | (BU > d)
 
     def update(lam, z, act):
         """Multiplier update lam <- [z]_+ on A; when two successive increments are
@@ -221,36 +296,35 @@ def _ssn_alm(C: Constraints, U, d, lam, atol, max_iter, rho, backend):
         if kkt <= atol:
             converged = True
             break
-        if it >= max_iter:
+        if it >= max_iter or (max_fact is not None and nfact >= max_fact):
             break
         z = lam - rho * r2
         act = forced if forced is not None else z > 0
         # Newton matrix set: the active rows; a row whose z is round-off keeps its
         # previous status (both are generalised Hessians; flipping would zigzag)
-        if forced is not None or fact_act is None:
+        if forced is not None or hprev is None:
             hact = act
         else:
-            hact = (z > eta) | ((z > -eta) & fact_act)
+            hact = (z > eta) | ((z > -eta) & hprev)
+        hprev = hact
         # Newton step for phi(.; lam): H_A delta = -grad phi = r1 + B^T(rho r2 on A, lam off A)
         rhs = r1 + C.rmatvec(np.where(act, rho * r2, lam))
-        # the factor is reused when A differs from its set only in round-off rows
-        # (any SPD matrix gives a descent direction; the line search does the rest)
-        if fact_act is None or forced is not None or not np.array_equal(hact, fact_act):
-            if np.any(hact):
-                discs, rows, cols, vals = _hessian(C, hact, rho)
-                fact = factor_spd(rows, cols, vals, 2 * len(discs), backend)
-                nfact += 1
-            else:
-                discs, fact = np.zeros(0, np.intp), None
-            fact_act = hact
         if np.abs(rhs).max() <= gtol and forced is None:
             # phi(.; lam) is minimised to round-off: multiplier update
             lam = update(lam, z, act)
             continue
-        delta = rhs
-        if fact is not None and len(discs):
-            delta = rhs.copy()
-            delta[discs] = fact.solve(rhs[discs].ravel()).reshape(-1, 2)
+        delta = None
+        if delta is None:
+            if fact_act is None or forced is not None or not np.array_equal(hact, fact_act):
+                if newton is None or not newton.covers(hact):
+                    # pattern: the Newton set plus the rows that U pushes towards contact
+                    S = hact | superset if newton is None else hact | newton.S | superset
+                    newton = _NewtonMatrix(C, S, rho, backend)
+                newton.factor(hact)
+                fact, discs = newton.fact, newton.discs
+                nfact += 1
+                fact_act = hact
+            delta = _psolve(fact, discs, rhs)
         it += 1
         if forced is None and np.abs(delta).max() <= 1e-2 * atol:
             # the Newton step is at round-off: phi(.; lam) is minimised, update lam
@@ -270,6 +344,75 @@ def _ssn_alm(C: Constraints, U, d, lam, atol, max_iter, rho, backend):
             # v minimises phi(.; lam) on this piece: multiplier update
             lam = update(lam, zn, act)
     return ProjectionResult(v, lam, it, nfact, float(kkt), converged, "exact")
+
+
+def _exact(C: Constraints, U, d, lam, atol, max_iter, rho, backend, max_fact):
+    """Warm-started semismooth Newton; interior point + Newton polish as fallback."""
+    res = _ssn_alm(C, U, d, lam, atol, max_iter or 200, rho, backend, max_fact=max_fact)
+    if res.converged or C.m == 0:
+        return res
+    v, lam_ipm, it_ipm = _ipm(C, U, d, lam, atol, 80, backend)
+    s = d - C.matvec(v)
+    pol = _ssn_alm(C, U, d, np.where(lam_ipm > s, lam_ipm, 0.0), atol, max_iter or 60, rho, backend)
+    best = pol
+    if not pol.converged:
+        kkt_ipm = kkt_residual(C, U, d, v, lam_ipm)
+        if kkt_ipm < pol.kkt:
+            best = ProjectionResult(v, lam_ipm, 0, 0, kkt_ipm, False, "exact")
+    return ProjectionResult(best.u, best.lam, res.iterations + it_ipm + pol.iterations,
+                            res.factorizations + it_ipm + pol.factorizations, best.kkt, best.converged, "exact")
+
+
+def _ipm(C: Constraints, U, d, lam0, atol, max_iter, backend, mu_stop=None, w_stop=1e14):
+    """Primal-dual interior point (Mehrotra predictor-corrector) for the QP.
+
+    Robust whatever the active-set changes (used when the semismooth Newton
+    needs too many factorisations, e.g. a crowd jamming at once). The Newton
+    matrix I + B^T diag(lam / s) B keeps one sparsity pattern: symbolic
+    factorisation once, one numeric factorisation per iteration.
+    Returns (v, lam, iterations).
+    """
+    m = C.m
+    scale = max(1.0, float(np.abs(U).max()))
+    if mu_stop is None:
+        mu_stop = 1e-2 * atol * scale
+    v = U.copy()
+    s = np.maximum(d - C.matvec(v), 1e-2 * scale)
+    lam = np.maximum(lam0, 1e-2 * scale)
+    newton = _NewtonMatrix(C, np.ones(m, bool), 1.0, backend)
+    it = 0
+    for it in range(1, max_iter + 1):
+        rd = v - U + C.rmatvec(lam)
+        rp = C.matvec(v) + s - d
+        mu = float(lam @ s) / m
+        w = lam / s
+        # stop when the active set is clear (the semismooth Newton polishes) or
+        # before the weights make the Newton matrix numerically singular
+        if max(np.abs(rd).max(), np.abs(rp).max(), mu) <= mu_stop or w.max() > w_stop:
+            break
+        newton.factor(w)
+
+        def direction(rc):
+            rhs = -rd - C.rmatvec((-rc + lam * rp) / s)
+            dv = _psolve(newton.fact, newton.discs, rhs)
+            ds = -rp - C.matvec(dv)
+            dl = (-rc - lam * ds) / s
+            return dv, ds, dl
+
+        def max_step(x, dx):
+            neg = dx < 0
+            return min(1.0, float((-x[neg] / dx[neg]).min())) if neg.any() else 1.0
+
+        dv, ds, dl = direction(lam * s)
+        a = min(max_step(s, ds), max_step(lam, dl))
+        mu_aff = float((s + a * ds) @ (lam + a * dl)) / m
+        sigma = (mu_aff / mu) ** 3
+        dv, ds, dl = direction(lam * s + ds * dl - sigma * mu)
+        a = 0.995 * min(max_step(s, ds), max_step(lam, dl))  # one step: QP stationarity
+        v = v + a * dv
+        s = s + a * ds
+        lam = lam + a * dl
+    return v, lam, it
 
 
 # --------------------------------------------------------------------------

@@ -10,8 +10,9 @@ The projection is the sparse QP of :mod:`femcrowd.micro.projection`. Gaps are
 convex functions of q, so q^{n+1} has no overlap when the QP is solved
 exactly and every pair that can touch is a candidate (Verlet list with a
 skin, rebuilt and the step redone if a disc travels further than the skin
-allows). Negative gaps (round-off, or overlapping input) enter as 0: an
-overlap can never grow and the QP is always feasible (v = 0 is feasible).
+allows). Negative gaps (round-off, or overlapping input) enter clipped at
+-1e-3 min(r): a small overlap is removed at the next step, a large one is
+reduced step by step, and the QP stays feasible.
 
 Discs whose centre crosses an exit segment during the step are removed and
 counted as evacuated. :func:`run` yields one :class:`StepInfo` per step so
@@ -114,8 +115,8 @@ class MicroSimulation:
     U : desired velocity, ``U(xy (n, 2), t) -> (n, 2)``.
     tau : time step.
     method : "exact" (default) or "uzawa" (seed 000 eq. 17).
-    skin : Verlet-list skin (default: 2 tau max|U| at the first step, at
-        least a quarter of the mean radius).
+    skin : Verlet-list skin (default: 6 tau max|U| at the first step, at
+        least half the mean radius).
     tol : relative KKT tolerance of the projection.
     """
 
@@ -160,6 +161,9 @@ class MicroSimulation:
         self.lam = np.zeros(0)
         self.u = np.zeros_like(q)
         self._C: Constraints | None = None  # constraints at the current q (cached)
+        # overlaps (round-off, or in the input) are removed by at most this much per
+        # step: the QP stays feasible and no overlap can grow
+        self._recover = 1e-3 * float(r.min()) if len(r) else 0.0
 
     # ------------------------------------------------------------------
     @property
@@ -194,7 +198,7 @@ class MicroSimulation:
     def _default_skin(self, U):
         rm = float(self.r.mean()) if self.count else 0.0
         vmax = float(np.sqrt((U * U).sum(1)).max()) if self.count else 0.0
-        return max(0.25 * rm, 3.0 * self.tau * vmax)
+        return max(0.5 * rm, 6.0 * self.tau * vmax)
 
     def constraints(self) -> Constraints:
         if self._C is None:
@@ -221,7 +225,7 @@ class MicroSimulation:
                 rebuilds += 1
             for attempt in range(6):
                 C = self.constraints()
-                d = np.maximum(C.D, 0.0) / tau
+                d = np.maximum(C.D, -self._recover) / tau
                 res = project(C, U, d, method=self.method, lam0=self.lam, tol=self.tol,
                               max_iter=self.max_iter, backend=self.backend)
                 moved = tau * np.sqrt((res.u * res.u).sum(1))
