@@ -257,7 +257,8 @@ class Projection:
             np.minimum.at(lowest, label, x)
             x -= np.where(floating[label], lowest[label], 0.0)
         r = (A_SS @ x - rhs)[keep]
-        info["linear_residual"] = float(np.max(np.abs(r) / self.area[S[keep]]))  # of the last (tight) solve
+        # of the last (tight) solve; nothing is solved when every cell of S is a pinned gauge cell
+        info["linear_residual"] = float(np.max(np.abs(r) / self.area[S[keep]], initial=0.0))
         return x
 
     def _linear_solve(self, K, cells, rhs, x0, info, tol):

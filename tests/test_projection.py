@@ -1,18 +1,12 @@
 """The correction step: exact LCP solution, invariants, singular and warm-started cases."""
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 import scipy.optimize
 import skfem
 
-from femcrowd.exact import DiscProjection
 from femcrowd.mesh import Domain
 from femcrowd.projection import Projection
-
-MESHES = Path(__file__).parents[1] / "meshes"
-
 
 def square_domain(n=12, exits=()):
     """Structured square mesh [0, 1]^2 with its four sides as named groups."""
@@ -93,26 +87,6 @@ def test_warm_start_gives_the_same_answer_in_fewer_iterations():
     assert np.allclose(phi_warm, phi_cold, atol=1e-12 * phi_cold.max())
     assert info_warm["iterations"] <= info_cold["iterations"]
     assert info_warm["iterations"] <= 3
-
-
-def test_exact_solution_4_one_projection_of_a_disc():
-    """rho~ = c on r < R: saturated disc of radius R sqrt(c); phi converges to the exact one."""
-    exact = DiscProjection(c=2.0, R=0.4)
-    errors, radius_errors, hs = [], [], []
-    mesh = skfem.MeshTri.load(str(MESHES / "square_exits.msh"))
-    for level in range(3):
-        domain = Domain(mesh.refined(level) if level else mesh, ["exit"])
-        x, y = domain.centroid.T
-        rho_tilde = domain.cell_average(exact.initial)
-        rho, phi, _ = Projection(domain)(rho_tilde)
-        check_lcp(domain, rho_tilde, rho, phi)
-        errors.append(np.sqrt(domain.area @ (phi - exact.phi(x, y)) ** 2))
-        radius_errors.append(abs(np.sqrt(domain.area[rho > 1 - 1e-9].sum() / np.pi) - exact.R1))
-        hs.append(domain.h)
-    rates = np.log(np.array(errors[:-1]) / errors[1:]) / np.log(np.array(hs[:-1]) / hs[1:])
-    assert errors[-1] < 2e-3 * exact.phi(0, 0)
-    assert rates.min() > 0.8, rates
-    assert radius_errors[-1] < 0.02 and radius_errors[-1] < radius_errors[0]
 
 
 @pytest.mark.parametrize("c", [1.0 + 1e-12, 50.0])
