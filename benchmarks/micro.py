@@ -169,7 +169,7 @@ def compare_solvers(args):
     q = hex_crowd(L, args.n, args.radius, seed=args.seed)
     U = towards_exits(exits, args.radius)
     sim = MicroSimulation(q, args.radius, walls, exits, U, args.tau)
-    for info in sim.run(max_steps=int(round(4.0 / args.tau))):  # 4 s: crowd jammed at the door
+    for info in sim.run(max_steps=int(round(3.0 / args.tau))):  # 3 s: the crowd has jammed
         pass
     C = sim.constraints()
     Ud = sim.desired_velocity()
@@ -182,7 +182,7 @@ def compare_solvers(args):
         res = project(C, Ud, d, **kw)
         rows.append((name, time.perf_counter() - t, res.kkt, res.u))
     t = time.perf_counter()
-    res = project(C, Ud, d, method="uzawa", max_iter=20000, tol=1e-8)
+    res = project(C, Ud, d, method="uzawa", max_iter=5000, tol=1e-8)
     rows.append((f"uzawa ({res.iterations} it)", time.perf_counter() - t, res.kkt, res.u))
     ref = rows[0][3]
     try:
@@ -199,7 +199,7 @@ def compare_solvers(args):
                 continue
             opts = dict(eps_abs=1e-10, eps_rel=1e-10) if solver in ("osqp", "proxqp") else {}
             if solver == "osqp":
-                opts.update(max_iter=100000, polishing=True)
+                opts.update(max_iter=20000, polishing=True)
             t = time.perf_counter()
             sol = qpsolvers.solve_problem(qpsolvers.Problem(P, qv, B.tocsc(), d), solver=solver, **opts)
             dt = time.perf_counter() - t

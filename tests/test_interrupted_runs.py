@@ -93,7 +93,7 @@ def test_sigint_to_a_running_process(tmp_path):
             break
         time.sleep(0.1)
     proc.send_signal(signal.SIGINT)
-    stdout, stderr = proc.communicate(timeout=60)
+    stdout, stderr = proc.communicate(timeout=300)  # generous: only a loaded machine is slow here
     assert proc.returncode == 130, stderr
     assert "Traceback" not in stderr and len(stderr.strip().splitlines()) == 1
     assert "interrupted" in stderr

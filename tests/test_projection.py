@@ -8,6 +8,7 @@ import skfem
 from femcrowd.mesh import Domain
 from femcrowd.projection import Projection
 
+
 def square_domain(n=12, exits=()):
     """Structured square mesh [0, 1]^2 with its four sides as named groups."""
     mesh = skfem.MeshTri.init_sqsymmetric().refined(int(np.log2(n)))
