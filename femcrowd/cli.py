@@ -32,6 +32,14 @@ class FemcrowdGroup(click.Group):
             sys.exit(130)
 
 
+# options shared by several commands
+set_option = click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
+                          help="Override a case key, e.g. --set time.end=5 (repeatable).")
+force_option = click.option("--force", is_flag=True,
+                            help="Write into a non-empty directory femcrowd did not create.")
+quiet_option = click.option("-q", "--quiet", is_flag=True, help="No progress bars.")
+
+
 @click.group(cls=FemcrowdGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="femcrowd")
 @click.option("-v", "--verbose", is_flag=True, help="Log solver details.")
@@ -62,11 +70,10 @@ def main(verbose):
 
 @main.command()
 @click.argument("case_dir", type=click.Path())
-@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
-              help="Override a case key, e.g. --set time.end=5 (repeatable).")
+@set_option
 @click.option("--out", type=click.Path(), help="Output directory (default: [output].dir of the case).")
-@click.option("--force", is_flag=True, help="Write into a non-empty directory femcrowd did not create.")
-@click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
+@force_option
+@quiet_option
 def run(case_dir, overrides, out, force, quiet):
     """Run the case in CASE_DIR (a directory with case.toml).
 
@@ -197,8 +204,7 @@ def new(case_dir, mesh_file):
 
 @main.command()
 @click.argument("case_dir", type=click.Path())
-@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
-              help="Override a case key, as for `femcrowd run` (repeatable).")
+@set_option
 def info(case_dir, overrides):
     """Resolved configuration, mesh statistics and run estimate of a case.
 
@@ -239,11 +245,11 @@ def _floats(option):
               help="One series per value, e.g. scheme.transport=upwind,muscl (repeatable: all combinations).")
 @click.option("--times", callback=_floats("--times"), metavar="T1,T2,...",
               help="Measure also at these times (the final time always).")
-@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help="Override a case key (repeatable).")
+@set_option
 @click.option("--out", type=click.Path(), help="Report directory (default: [output].dir/convergence).")
 @click.option("--serial", is_flag=True, help="Run the levels one after the other in this process.")
 @click.option("--scheduler", metavar="ADDRESS", help="Use this dask scheduler (default: a LocalCluster).")
-@click.option("--force", is_flag=True, help="Write into a non-empty directory femcrowd did not create.")
+@force_option
 def convergence(case_dir, levels, cfl, set_values, times, overrides, out, serial, scheduler, force):
     """Mesh-convergence study of a case: errors against h and against run time.
 
@@ -269,11 +275,11 @@ def convergence(case_dir, levels, cfl, set_values, times, overrides, out, serial
 @click.argument("case_dir", type=click.Path())
 @click.option("--set-values", "set_values", multiple=True, required=True, metavar="KEY=V1,V2,...",
               help="Values of a case key, e.g. initial.density=0.4,0.6 (repeatable: all combinations).")
-@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help="Override a case key (repeatable).")
+@set_option
 @click.option("--out", type=click.Path(), help="Sweep directory (default: [output].dir/sweep).")
 @click.option("--serial", is_flag=True, help="Run one after the other in this process.")
 @click.option("--scheduler", metavar="ADDRESS", help="Use this dask scheduler (default: a LocalCluster).")
-@click.option("--force", is_flag=True, help="Write into a non-empty directory femcrowd did not create.")
+@force_option
 def sweep(case_dir, set_values, overrides, out, serial, scheduler, force):
     """Run a case for every combination of parameter values (in parallel through dask).
 
@@ -296,7 +302,7 @@ def sweep(case_dir, set_values, overrides, out, serial, scheduler, force):
               help="Directory for the runs (one per scene) and the table stress.csv / stress.md.")
 @click.option("--only", multiple=True, metavar="SCENE", help="Run only this scene (repeatable).")
 @click.option("--cases", type=click.Path(), help="Directory of scene case directories (default: cases/stress).")
-@click.option("--force", is_flag=True, help="Write into a non-empty directory femcrowd did not create.")
+@force_option
 @click.option("--checks", is_flag=True, help="Print every check of every scene under its row.")
 def stress(out, only, cases, force, checks):
     """Run the stiff and extreme scenes of cases/stress and check every invariant.
@@ -341,11 +347,10 @@ def stress(out, only, cases, force, checks):
 
 @main.command()
 @click.argument("case_dir", type=click.Path())
-@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
-              help="Override a case key, e.g. --set micro.radius=0.25 (repeatable).")
+@set_option
 @click.option("--out", type=click.Path(), help="Output directory (default: [output].dir of the case).")
-@click.option("--force", is_flag=True, help="Write into a non-empty directory femcrowd did not create.")
-@click.option("-q", "--quiet", is_flag=True, help="No progress bars.")
+@force_option
+@quiet_option
 def compare(case_dir, overrides, out, force, quiet):
     """Run CASE_DIR with the macro and the micro model on the same scene and compare them.
 
