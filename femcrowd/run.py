@@ -48,16 +48,14 @@ def setup_macro(case):
     solver = MacroSolver(domain, velocity, rho0, case["time"]["cfl"], case["time"]["dt"], projection,
                          case["scheme"]["transport"])
     timing["assembly"] = time.perf_counter() - tic
-    if case["time"]["dt"] is not None and case["time"]["dt"] > solver.transport.max_dt:
-        raise InputError(case.file, "time.dt", case["time"]["dt"],
-                         f"exceeds the CFL limit {solver.transport.max_dt:.3g} s of the upwind transport, "
-                         "above which densities can become negative (use a smaller dt, or time.cfl <= 1)")
     check_transport_cfl(case, solver.transport)
     return Scene(case, domain, velocity, solver, timing)
 
 
 def check_transport_cfl(case, transport):
-    """The higher-order transports are oscillation-free only up to their own CFL number (max_cfl).
+    """Refuse a time step beyond the transport's own CFL number (max_cfl: 1 for upwind, beyond
+    which densities can become negative; 0.5 for the higher-order transports, beyond which
+    they oscillate).
 
     transport: the transport object, or its class when the case has no time.dt."""
     name, limit, dt = case["scheme"]["transport"], transport.max_cfl, case["time"]["dt"]
@@ -66,7 +64,8 @@ def check_transport_cfl(case, transport):
                          f"must be <= {limit:g} with scheme.transport = {name!r}")
     if dt is not None and dt > limit * transport.max_dt:
         raise InputError(case.file, "time.dt", dt, f"exceeds {limit:g} x the CFL limit "
-                         f"{transport.max_dt:.3g} s, the most scheme.transport = {name!r} allows")
+                         f"{transport.max_dt:.3g} s of the upwind scheme, the most scheme.transport = "
+                         f"{name!r} allows (use a smaller dt, or time.cfl)")
 
 
 def desired_velocity(case, domain):
