@@ -48,10 +48,12 @@ class MacroSolver:
         """Largest step allowed: cfl * (CFL-1 step of the upwind scheme), or the fixed dt.
 
         A fixed dt is checked against the CFL limit at setup; it is still capped here
-        because a time-dependent U can lower the limit during the run, and beyond it
-        the upwind update has negative coefficients (negative densities, lost mass).
+        (at the transport's own max_cfl) because a time-dependent U can lower the limit
+        during the run, and beyond it the upwind update has negative coefficients
+        (negative densities, lost mass).
         """
-        return self.cfl * self.transport.max_dt if self.fixed_dt is None else min(self.fixed_dt, self.transport.max_dt)
+        limit = self.transport.max_cfl * self.transport.max_dt
+        return self.cfl * self.transport.max_dt if self.fixed_dt is None else min(self.fixed_dt, limit)
 
     def step(self, until=np.inf):
         """Advance by one step, not beyond time ``until``; return the step's diagnostics."""
