@@ -84,8 +84,12 @@ def test_crash_mid_run(tmp_path, monkeypatch):
 def test_sigint_to_a_running_process(tmp_path):
     """A real Ctrl-C (SIGINT) to `femcrowd run`: exit code 130, one line on stderr, no traceback."""
     out = tmp_path / "out"
+    # A terminal's Ctrl-C reaches a process whose SIGINT has the default disposition; a child
+    # inherits "ignored" from its parent (some earlier test in a full run leaves it so), and
+    # Python then installs no KeyboardInterrupt handler: reset it in the child.
     proc = subprocess.Popen([str(FEMCROWD), "run", str(CASE), "--out", str(out), "-q", "--set", "time.end=1e4"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and proc.poll() is None:
         history = out / "history.csv"
