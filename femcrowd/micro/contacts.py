@@ -236,24 +236,6 @@ class Constraints:
             [2 * self.pi, 2 * self.pi + 1, 2 * self.pj, 2 * self.pj + 1, 2 * self.wi, 2 * self.wi + 1]
         )
 
-    @classmethod
-    def from_arrays(cls, q, r, pairs=None, wall_i=None, wall_points=None, walls: WallSet | None = None,
-                    wall_s=None):
-        """Build from disc pairs (k, 2) and wall contacts (disc index, closest point)."""
-        q = np.asarray(q, float)
-        r = np.asarray(r, float)
-        pairs = np.zeros((0, 2), np.intp) if pairs is None else np.asarray(pairs, np.intp).reshape(-1, 2)
-        Dp, e = pair_gaps(q, r, pairs[:, 0], pairs[:, 1])
-        if wall_i is None:
-            wall_i = np.zeros(0, np.intp)
-        wall_i = np.asarray(wall_i, np.intp)
-        if wall_points is None and walls is not None and wall_s is not None:
-            wall_points, _ = point_segment_distance(q[wall_i], walls.a[wall_s], walls.b[wall_s])
-        wp = np.zeros((0, 2)) if wall_points is None else np.asarray(wall_points, float).reshape(-1, 2)
-        Dw, n = _wall_gap(q, r, wall_i, wp)
-        ws = np.full(len(wall_i), -1) if wall_s is None else wall_s
-        return cls(len(q), pairs[:, 0], pairs[:, 1], e, wall_i, ws, -n, np.concatenate([Dp, Dw]))
-
     # B v and B^T lambda ----------------------------------------------------
     def matvec(self, v):
         """B v for velocities v (N, 2) -> (m,)."""
@@ -272,12 +254,6 @@ class Constraints:
         lw = lam[self.mp :, None] * self.cw
         w = np.concatenate([lp[:, 0], lp[:, 1], -lp[:, 0], -lp[:, 1], lw[:, 0], lw[:, 1]])
         return np.bincount(self._cols, weights=w, minlength=2 * self.N).reshape(self.N, 2)
-
-    def row_discs(self):
-        """(rows, discs) incidence: each row listed with each disc it touches."""
-        rows = np.concatenate([np.arange(self.mp), np.arange(self.mp), self.mp + np.arange(self.mw)])
-        discs = np.concatenate([self.pi, self.pj, self.wi])
-        return rows, discs
 
     def per_disc_sum(self, x):
         """Sum of a per-row quantity over the rows touching each disc (pressure)."""

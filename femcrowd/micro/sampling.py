@@ -67,7 +67,7 @@ def _triangle_data(points, triangles):
     return a, b, c, area
 
 
-def target_count(density, points, triangles, radius, packing: float = HEX_PACKING, quad_points: int = 7) -> int:
+def target_count(density, points, triangles, radius, packing: float = HEX_PACKING) -> int:
     """Count ~ integral of density * packing / (pi E[r^2]) (7-point rule per triangle)."""
     a, b, c, area = _triangle_data(points, triangles)
     # degree-3 symmetric rule: centroid + edge midpoints + vertices (Strang-Fix 7 points)
