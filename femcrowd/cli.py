@@ -40,6 +40,16 @@ force_option = click.option("--force", is_flag=True,
 quiet_option = click.option("-q", "--quiet", is_flag=True, help="No progress bars.")
 
 
+def case_run_options(command):
+    """CASE_DIR, --set, --out, --force, -q: the arguments of the commands that run a case."""
+    for option in reversed([click.argument("case_dir", type=click.Path()), set_option,
+                            click.option("--out", type=click.Path(),
+                                         help="Output directory (default: [output].dir of the case)."),
+                            force_option, quiet_option]):
+        command = option(command)
+    return command
+
+
 @click.group(cls=FemcrowdGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="femcrowd")
 @click.option("-v", "--verbose", is_flag=True, help="Log solver details.")
@@ -69,11 +79,7 @@ def main(verbose):
 
 
 @main.command()
-@click.argument("case_dir", type=click.Path())
-@set_option
-@click.option("--out", type=click.Path(), help="Output directory (default: [output].dir of the case).")
-@force_option
-@quiet_option
+@case_run_options
 def run(case_dir, overrides, out, force, quiet):
     """Run the case in CASE_DIR (a directory with case.toml).
 
@@ -346,11 +352,7 @@ def stress(out, only, cases, force, checks):
 
 
 @main.command()
-@click.argument("case_dir", type=click.Path())
-@set_option
-@click.option("--out", type=click.Path(), help="Output directory (default: [output].dir of the case).")
-@force_option
-@quiet_option
+@case_run_options
 def compare(case_dir, overrides, out, force, quiet):
     """Run CASE_DIR with the macro and the micro model on the same scene and compare them.
 
