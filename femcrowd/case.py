@@ -54,7 +54,7 @@ SCHEMA = {
     "output": {"dir": Key("output", "str"),
                "every": Key(0.5, "number", low=0, low_open=True),
                "fields": Key(list(FIELDS), "fields")},
-    "projection": {"direct_max": Key(50_000, "int", low=0),
+    "projection": {"direct_max": Key(1_000_000, "int", low=0),
                    "tol": Key(1e-12, "number", low=0, high=1e-6, low_open=True)},
     "micro": {"radius": Key(0.2, "radius"), "count": Key(None, "int", low=1),
               "seed": Key(1, "int"), "positions": Key(None, "str"),

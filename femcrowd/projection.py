@@ -18,15 +18,17 @@ Cost (docs/performance.md), with the result unchanged:
   several cells per step while an iteration adds one layer, so the overflow of
   the cells that join is spread to the next ones (a few sweeps of a divisible
   sandpile, _spill) to guess the new S; the iteration then decides;
-- inexact Newton: intermediate iterations solve to a loose density tolerance
+- inexact Newton (AMG): intermediate iterations solve to a loose density tolerance
   (only their signs matter); from the iteration where S (nearly) settles, the
   solves are tight, and the loop stops only on an S reproduced by a tight solve;
 - all work after the O(n) test rho~ > 1 is restricted to S and its neighbour
   layer L (index arrays, persistent scratch vectors, no full-length temporaries);
-- systems up to ``direct_max`` unknowns are factorised (SuperLU), larger ones
-  solved by CG preconditioned with a Ruge-Stuben AMG V-cycle; the factorisation
-  or hierarchy is kept between iterations and steps (see _linear_solve), and
-  initial guesses come from the previous phi;
+- systems up to ``direct_max`` unknowns are factorised (sparse Cholesky): the
+  symbolic analysis of an envelope of S (S and a few layers of neighbours) is
+  kept between iterations and steps, so a new S inside it costs one numeric
+  factorisation (_EnvelopeCholesky); larger systems are solved by CG
+  preconditioned with a Ruge-Stuben AMG V-cycle, the hierarchy kept while S
+  is unchanged, initial guesses from the previous phi;
 - iterative solves stop when every cell's density is within ``tol`` of its
   target (|r_K| <= tol |K|) or at the round-off level of A phi, so the bound
   rho <= 1 + tol holds whatever the conditioning (a relative residual of 1e-12
@@ -35,21 +37,24 @@ Cost (docs/performance.md), with the result unchanged:
 
 import time
 
+import cvxopt
+import cvxopt.cholmod as cholmod
 import numpy as np
 import pyamg
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
-from scipy.sparse.linalg import splu
 
-#: a kept factorisation preconditions CG on an S that differs from its own by at most this fraction,
-REUSE_FRACTION = 0.2
-#: ... and is dropped after a solve that needed more CG iterations than this
-STALE_ITERATIONS = 4
+#: layers of neighbours around S in the envelope of a factorisation (the front moves a few cells per step)
+ENVELOPE_LAYERS = 8
+#: a factorisation whose envelope is more than 1 / SHRINK times S is replaced by a tighter one
+SHRINK = 0.6
 #: density tolerance of the intermediate active-set iterations (only their signs matter)
 LOOSE = 1e-6
 #: sweeps of the overflow predictor (see _spill), applied to at most MAX_SPILLS growing updates per step
+#: (a cap: after it the plain active-set iteration, monotone for an M-matrix, finishes the step; a cold
+#: start on the 10^6-triangle benchmark hall took 43 iterations with 3 spills and 11 with 16)
 SPILL_SWEEPS = 8
-MAX_SPILLS = 3
+MAX_SPILLS = 16
 #: solves are tight from the iteration that changes fewer than this fraction of S
 TIGHT_SWITCH = 1e-3
 #: round-off of (A phi)_K in units of eps * A_KK * max|phi| (floor of the iterative stopping test)
@@ -63,7 +68,7 @@ class ProjectionError(RuntimeError):
 class Projection:
     """Exact LCP projection with warm-started active sets and reused linear solvers."""
 
-    def __init__(self, domain, direct_max=50_000, tol=1e-12, max_iterations=None, reuse=True):
+    def __init__(self, domain, direct_max=1_000_000, tol=1e-12, max_iterations=None, reuse=True):
         self.A = domain.laplacian()
         self.A.sort_indices()
         self.area = domain.area
@@ -77,7 +82,8 @@ class Projection:
         self.reuse = reuse
         self.active = np.zeros(0, np.intp)      # S of the last call (sorted cells): the warm start
         self.phi_active = np.zeros(0)           # phi on it: the initial guess of the next solve
-        self.solver = None                      # the kept _Solver
+        self.factor = None                      # the kept _EnvelopeCholesky
+        self.hierarchy = None                   # the kept _Hierarchy
         n = domain.ncells
         self._mark = np.zeros(n, bool)          # scratch, all False between uses
         self._position = np.zeros(n, np.intp)   # scratch: position of a cell in the current local set
@@ -86,10 +92,11 @@ class Projection:
     def __call__(self, rho_tilde):
         """Return (rho, phi, info) for one correction step.
 
-        info: iterations (active-set), linear_residual (max |r_K| / |K| of the linear
-        solves), unknowns (|S|), linear_iterations (CG, 0 for exact solves),
-        rebuilds (factorisations / AMG set-ups), and seconds spent in detect (rho~ > 1),
-        setup, solve and active_set (everything else).
+        info: iterations (active-set iterations, each with a solve to the tolerance, or a loose
+        one on the AMG path), linear_residual (max |r_K| / |K| of the linear solves), unknowns
+        (|S|), linear_iterations (CG of the AMG path), rebuilds (new envelopes / AMG set-ups), and
+        seconds spent in detect (rho~ > 1), setup (numeric factorisations, AMG set-ups), solve
+        and active_set (everything else).
         """
         clock = _Clock()
         b = self.area * (1.0 - rho_tilde)
@@ -102,7 +109,7 @@ class Projection:
             return rho_tilde.copy(), np.zeros_like(b), info
         # cells that enter S wherever they are (w = b off the neighbourhood of S)
         strict = over[b[over] < -self.tol * self.area[over]]
-        S = np.union1d(over, self.active)
+        S = self._union(over, self.active)
         x0 = self._carry(self.active, self.phi_active, S)
         info["detect"] = clock.lap()
         spills, tight = 0, False  # inexact Newton: loose solves until S (nearly) settles, then tight ones
@@ -137,6 +144,15 @@ class Projection:
         info["active_set"] = clock.lap() - info["setup"] - info["solve"]
         return rho, phi, info
 
+    def _union(self, a, b):
+        """Sorted union of two sets of cells, through the scratch mask: O(n) with a small constant,
+        where np.union1d sorts (47 ms for 5 10^5 cells, 1 ms this way)."""
+        self._mark[a] = True
+        self._mark[b] = True
+        union = np.flatnonzero(self._mark)
+        self._mark[union] = False
+        return union
+
     def _changed(self, S, new):
         """Number of cells in one of the sorted sets S and new but not in the other."""
         self._mark[S] = True
@@ -156,7 +172,7 @@ class Projection:
         self._mark[L] = True
         far = strict[~self._mark[strict]]
         self._mark[L] = False
-        return np.union1d(L[stay], far) if far.size else L[stay]
+        return self._union(L[stay], far) if far.size else L[stay]
 
     def _update(self, S, phi_S, b, strict):
         """One active-set update from a given phi on S (no solve); returns the new S and phi on it."""
@@ -167,42 +183,54 @@ class Projection:
         return new, self._carry(S, phi_S, new)
 
     def _spill(self, S, new, b, L, w):
-        """The next S guessed by spreading the overflow -w of the cells that join S (divisible sandpile).
+        """The next S guessed by spreading the overflow -w of the cells that join S, and the residual
+        -w that the guessed phi leaves in S, outwards (divisible sandpile).
 
         A dense crowd running into the saturated zone moves its front by several cells per
-        step, and an active-set iteration adds one layer of cells: each cell that joins passes
-        its overflow to its neighbours outside S in proportion to the transmissibilities, and
-        those it overfills join too (a few sweeps). Only the guess of the next iteration
-        changes; the active-set iteration after it decides (and drops any wrong cell).
+        step, and an active-set iteration adds one layer of cells: each cell with an overflow
+        passes it to its neighbours outside S in proportion to the transmissibilities (a cell
+        with none, to its other neighbours), and those it overfills join too (a few sweeps).
+        Only the guess of the next iteration changes; the active-set iteration after it
+        decides (and drops any wrong cell).
         """
         level = b.copy()            # w of every cell with phi = 0 outside L
         level[L] = w
         inside = self._mark
         inside[S] = True
-        front = new[~inside[new]]   # the cells that join
+        joining = new[~inside[new]]
         inside[new] = True
-        added = [front]
+        # the overflow of the cells that join, and what the guessed phi leaves in S: at a warm start,
+        # the capacity that the cells that joined at the last step used up (their residual, all
+        # within two layers of the front of S, matched the capacity of the cells that join next
+        # to within 5 % on the benchmark hall)
+        front = np.concatenate([joining, S[level[S] < -self.tol * self.area[S]]])
+        added = [joining]
         for _ in range(SPILL_SWEEPS):
-            front = front[level[front] < 0]
+            front = front[level[front] < -self.tol * self.area[front]]
             if not front.size:
                 break
             rows = self.A[front]
             row = np.repeat(np.arange(len(front)), np.diff(rows.indptr))
+            neighbour = rows.indices != front[row]
             out = ~inside[rows.indices]
-            weight = np.where(out, -rows.data, 0.0)
+            # to the neighbours outside the set; a cell with none (second layer) passes to its others
+            closed = np.bincount(row, out, len(front)) == 0
+            receives = neighbour & (out | closed[row])
+            weight = np.where(receives, -rows.data, 0.0)
             total = np.bincount(row, weight, len(front))
             share = weight * (-level[front] / np.where(total > 0, total, 1.0))[row]
-            np.subtract.at(level, rows.indices[out], share[out])
+            np.subtract.at(level, rows.indices[receives], share[receives])
             level[front] = 0.0
-            targets = np.unique(rows.indices[out])
+            targets = np.unique(rows.indices[receives])
             front = targets[level[targets] < -self.tol * self.area[targets]]
-            inside[front] = True
-            added.append(front)
+            joining = front[~inside[front]]
+            inside[joining] = True
+            added.append(joining)
         inside[S] = False
         inside[new] = False
         grown = np.concatenate(added[1:]) if len(added) > 1 else added[0][:0]
         inside[grown] = False
-        return np.union1d(new, grown) if grown.size else new
+        return self._union(new, grown) if grown.size else new
 
     def _carry(self, cells, values, new_cells):
         """values on `cells` moved to `new_cells` (0 on cells that are new): the initial guess."""
@@ -262,45 +290,45 @@ class Projection:
         return x
 
     def _linear_solve(self, K, cells, rhs, x0, info, tol):
-        """K x = rhs on `cells` to the density tolerance tol, reusing the kept solver when it still fits.
-
-        A factorisation of S is exact for S and an almost exact preconditioner for a nearby S.
-        An AMG hierarchy is reused only on the same S: one built for an S that differs by 24
-        cells out of 3 10^5 (embedded as in _Solver.preconditioner) took 29-37 CG iterations
-        where a new one took 11-16, and 500 changed cells took 54 instead of 5, more than the
-        set-up (~15 iterations) it saves.
-        """
+        """K x = rhs (K = A on `cells`): factorised up to ``direct_max`` unknowns, else AMG + CG to the
+        density tolerance tol from x0."""
         clock = _Clock()
-        direct = K.shape[0] <= self.direct_max
-        solver = self.solver if self.reuse else None
-        if solver is not None and solver.direct == direct:
-            common = solver.common(cells)
-            if solver.direct and common.exact:
-                x = solver.solve(rhs)
-                info["solve"] += clock.lap()
-                return x
-            changed = len(cells) - common.count + len(solver.cells) - common.count
-            if common.exact or (direct and changed <= REUSE_FRACTION * len(cells)):
-                x, its, ok = pcg(K, rhs, x0, solver.preconditioner(common, K), self._threshold(K, cells, tol),
-                                 maxiter=500)
-                info["solve"] += clock.lap()
-                info["linear_iterations"] += its
-                if not common.exact and its > STALE_ITERATIONS:
-                    self.solver = None  # no longer pays off: rebuild at the next solve
-                if ok:
-                    return x
-                x0 = x
-        solver = self.solver = _Solver(K, cells, direct)
-        info["rebuilds"] += 1
-        info["setup"] += clock.lap()
-        if direct:
-            x, its = solver.solve(rhs), 0
-        else:
-            x, its, ok = pcg(K, rhs, x0, solver.preconditioner(solver.common(cells), K),
-                             self._threshold(K, cells, tol), maxiter=500)
+        if len(cells) <= self.direct_max:
+            factor = self.factor if self.reuse else None
+            if factor is None or not factor.fits(cells):
+                factor = self.factor = _EnvelopeCholesky(self.A, self._envelope(cells))
+                info["rebuilds"] += 1
+            factor.refactor(cells)
+            info["setup"] += clock.lap()
+            x = factor.solve(rhs)
+            info["solve"] += clock.lap()
+            return x
+        # An AMG hierarchy is reused only on the same S: one built for an S that differs by 24
+        # cells out of 3 10^5 (embedded, Jacobi on the new cells) took 29-37 CG iterations where
+        # a new one took 11-16, and 500 changed cells took 54 instead of 5, more than the set-up
+        # (~15 iterations) it saves.
+        hierarchy = self.hierarchy if self.reuse else None
+        if hierarchy is None or not np.array_equal(hierarchy.cells, cells):
+            hierarchy = self.hierarchy = _Hierarchy(K, cells)
+            info["rebuilds"] += 1
+            info["setup"] += clock.lap()
+        x, its, ok = pcg(K, rhs, x0, hierarchy.vcycle, self._threshold(K, cells, tol), maxiter=500)
         info["solve"] += clock.lap()
         info["linear_iterations"] += its
         return x
+
+    def _envelope(self, cells):
+        """`cells` and ENVELOPE_LAYERS layers of their neighbours (sorted): the index set of a factorisation."""
+        mark = self._mark
+        mark[cells] = True
+        front = cells
+        for _ in range(ENVELOPE_LAYERS):
+            neighbours = self.A[front].indices
+            front = np.unique(neighbours[~mark[neighbours]])
+            mark[front] = True
+        envelope = np.flatnonzero(mark)
+        mark[envelope] = False
+        return envelope
 
     def _threshold(self, K, cells, tol):
         """Per-row stopping test of CG: |r_K| <= tol |K|, or the round-off of (K x)_K."""
@@ -308,53 +336,69 @@ class Projection:
         return lambda x: np.maximum(area, floor * max(float(np.abs(x).max()), 1e-300))
 
 
-class _Common:
-    """Cells shared by a kept solver and a new system: positions in both."""
+class _EnvelopeCholesky:
+    """Sparse Cholesky factorisation of A_SS for every S inside a fixed envelope E of cells.
 
-    def __init__(self, new_positions, ref_positions, exact):
-        self.new, self.ref, self.exact = new_positions, ref_positions, exact
-        self.count = len(new_positions)
+    The matrix factorised is K = T A_EE T + diag(A_EE) (I - T), T = diag(1_S): A_SS on S and
+    its diagonal elsewhere (so x = 0 off S). Its sparsity pattern is that of A_EE whatever S
+    is, so the symbolic analysis (fill-reducing ordering, supernodes) is done once per
+    envelope and a new S costs one numeric factorisation. CHOLMOD (supernodal, through cvxopt)
+    rather than scipy's SuperLU: on the 2.6 10^5-cell saturated zone of the benchmark hall it
+    factorises in 0.17 s, where a Ruge-Stuben set-up takes 0.30 s; SuperLU took 8x as long as
+    CHOLMOD already at 2.6 10^4 cells (docs/performance.md).
+    """
+
+    def __init__(self, A, envelope):
+        self.cells = envelope
+        lower = sp.tril(A[envelope][:, envelope], format="csc")
+        lower.sort_indices()  # column by column, rows sorted: cvxopt's storage order
+        self.row = lower.indices
+        self.col = np.repeat(np.arange(len(envelope)), np.diff(lower.indptr))
+        self.values = lower.data
+        self.diagonal = self.row == self.col
+        self.matrix = cvxopt.spmatrix(1.0, cvxopt.matrix(self.row.astype(int)), cvxopt.matrix(self.col.astype(int)),
+                                      (len(envelope), len(envelope)))
+        self.symbolic = cholmod.symbolic(self.matrix, uplo="L")
+        self.active = None                 # positions of S in the envelope, as last factorised
+        self.mask = np.zeros(len(envelope), bool)
+
+    def fits(self, cells):
+        """cells inside the envelope and filling enough of it (else a new, tighter one pays off)."""
+        if len(cells) < SHRINK * len(self.cells):
+            return False
+        position = np.minimum(np.searchsorted(self.cells, cells), len(self.cells) - 1)
+        return bool(np.all(self.cells[position] == cells))
+
+    def refactor(self, cells):
+        """Numeric factorisation of K for S = cells (nothing to do when S is the last one)."""
+        active = np.searchsorted(self.cells, cells)
+        if self.active is not None and np.array_equal(active, self.active):
+            return
+        self.active = active
+        self.mask[:] = False
+        self.mask[active] = True
+        keep = self.diagonal | (self.mask[self.row] & self.mask[self.col])
+        self.matrix.V = cvxopt.matrix(np.where(keep, self.values, 0.0))
+        cholmod.numeric(self.matrix, self.symbolic)
+
+    def solve(self, rhs):
+        """x on S with K x = rhs on S and 0 elsewhere."""
+        b = np.zeros(len(self.cells))
+        b[self.active] = rhs
+        b = cvxopt.matrix(b)
+        cholmod.solve(self.symbolic, b)
+        return np.array(b).ravel()[self.active]
 
 
-class _Solver:
-    """A SuperLU factorisation or a Ruge-Stuben hierarchy of K on `cells` (sorted)."""
+class _Hierarchy:
+    """A Ruge-Stuben hierarchy of K on `cells` (sorted)."""
 
-    def __init__(self, K, cells, direct):
-        self.cells, self.direct = cells, direct
-        if direct:
-            # K is a symmetric M-matrix (positive definite), so SuperLU runs in symmetric mode
-            # without pivoting: the minimum-degree ordering of K + K^T is then kept, which is
-            # 10-20x faster than the default threshold pivoting on these Laplacians.
-            self.lu = splu(K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                           options={"SymmetricMode": True})
-        else:
-            self.ml = amg_hierarchy(K)
+    def __init__(self, K, cells):
+        self.cells = cells
+        self.ml = amg_hierarchy(K)
 
-    def solve(self, r):
-        return self.lu.solve(r) if self.direct else vcycle(self.ml, r)
-
-    def common(self, cells):
-        if len(cells) == len(self.cells) and np.array_equal(cells, self.cells):
-            everything = np.arange(len(cells))
-            return _Common(everything, everything, True)
-        pos = np.minimum(np.searchsorted(self.cells, cells), len(self.cells) - 1)
-        hit = self.cells[pos] == cells
-        return _Common(np.flatnonzero(hit), pos[hit], False)
-
-    def preconditioner(self, common, K):
-        """z = E^T M E r + D^-1 r on the cells the solver does not know (SPD for an SPD M)."""
-        if common.exact:
-            return self.solve
-        inverse_diagonal = 1.0 / K.diagonal()
-        size = len(self.cells)
-
-        def apply(r):
-            z = inverse_diagonal * r
-            embedded = np.zeros(size)
-            embedded[common.ref] = r[common.new]
-            z[common.new] = self.solve(embedded)[common.ref]
-            return z
-        return apply
+    def vcycle(self, r):
+        return vcycle(self.ml, r)
 
 
 def _product(rows, col, size, phi_S):
