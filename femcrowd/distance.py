@@ -33,6 +33,9 @@ degree gradients), refuses non-manifold meshes (two obstacles touching at a
 node) and drops unused trailing nodes. This module has none of these limits,
 is the fastest at 1e6 triangles and adds no dependency.
 
+Relaxing only a band near the front (see _fim) later took this module's row to 0.02 / 0.14 /
+1.9 s (2.8 s for the previous code in the same session), with the same errors.
+
 Seeding: exit nodes get 0 and the nodes of the triangles around each exit node
 get their straight-line distance to the exit *segments* (exact for a straight
 exit), so the field is the distance to the segments, not to the exit nodes.
@@ -59,6 +62,10 @@ __all__ = ["exit_distance"]
 #: the mean edge length (1e-6: the result agrees to 3 digits with a 1e-9 tolerance, at half
 #: the cost).
 REL_TOL = 1e-6
+
+#: Width of the band of active nodes relaxed per iteration, in mean edge lengths (see _fim;
+#: 2, 3 and 4 were within 15 % of each other on the two 10^6-triangle halls).
+BAND = 3.0
 
 
 def exit_distance(points, triangles, exit_edges):
@@ -166,9 +173,21 @@ def _ranges(ptr, ind, nodes):
 
 def _fim(corners, d):
     """Fast Iterative Method. Active nodes are relaxed together (Jacobi) until they stop
-    decreasing; a node that has converged wakes the neighbours that it would improve."""
+    decreasing; a node that has converged wakes the neighbours that it would improve.
+
+    Only the active nodes within BAND mean edges of the smallest active value are relaxed
+    (the others wait with their tentative values): an untidy priority queue, as in the group
+    marching method (Kim 2001). Relaxing every active node lets the wave run ahead through
+    chains of obtuse triangles, where causality fails; the nodes it reaches first by longer
+    paths are then lowered again and again by the better values that follow. Measured on the
+    10^6-triangle hall of benchmarks/setup_phases.py meshed by gmsh's Delaunay without
+    smoothing: each corner relaxed 24 times (15 s of CPU) without the band, 1.3 times (1-2 s)
+    with it. Both orders converge to the same fixed point (equal to 3e-14 there with a zero
+    tolerance); with REL_TOL they stop within 2e-7 (band) and 9e-7 (all active nodes) of it,
+    for d up to 21."""
     n = len(d)
     tol = REL_TOL * corners.mean_edge
+    band = BAND * corners.mean_edge
     mark = np.zeros(n, dtype=bool)
     x = np.empty(0, dtype=np.int64)  # active nodes
     done = np.flatnonzero(np.isfinite(d))  # the seeds act as converged nodes
@@ -185,12 +204,14 @@ def _fim(corners, d):
             x = np.concatenate([x, new])
         if not len(x):
             break
-        old = d[x]
-        tgt, val = corners.update(d, corners.owned(x))
+        dx = d[x]
+        near = dx <= dx.min() + band
+        y, waiting, old = x[near], x[~near], dx[near]
+        tgt, val = corners.update(d, corners.owned(y))
         np.minimum.at(d, tgt, val)
-        conv = d[x] >= old - tol
-        done = x[conv]
-        x = x[~conv]
+        conv = d[y] >= old - tol
+        done = y[conv]
+        x = np.concatenate([y[~conv], waiting])
     return d
 
 

@@ -250,12 +250,14 @@ def _split(loops, exits, tol):
     return out
 
 
-def build_mesh(geometry_file, out=None, refine_exits=None) -> pathlib.Path:
+def build_mesh(geometry_file, out=None, refine_exits=None, gmsh_options=None) -> pathlib.Path:
     """Mesh the floor plan ``geometry_file`` and write it as MSH 2.2.
 
     out: the .msh path (default: next to the TOML, same stem).
     refine_exits: local cell size near every exit, overriding the per-exit
     ``size`` keys (None: use them).
+    gmsh_options: gmsh options overriding femcrowd's (frontal-Delaunay,
+    ``Mesh.Algorithm`` 6, with ``Mesh.Smoothing`` 5), e.g. for benchmarks.
     Raises InputError for a bad floor plan.
     """
     geometry_file = pathlib.Path(geometry_file)
@@ -306,9 +308,9 @@ def build_mesh(geometry_file, out=None, refine_exits=None) -> pathlib.Path:
             smallest = gmsh.model.mesh.field.add("Min")
             gmsh.model.mesh.field.setNumbers(smallest, "FieldsList", fields)
             gmsh.model.mesh.field.setAsBackgroundMesh(smallest)
-        for option, value in [("Mesh.MeshSizeMax", size), ("Mesh.MeshSizeFromPoints", 0),
-                              ("Mesh.MeshSizeExtendFromBoundary", 0), ("Mesh.Algorithm", 6),
-                              ("Mesh.Smoothing", 5), ("Mesh.MshFileVersion", 2.2), ("Mesh.Binary", 0)]:
+        options = {"Mesh.MeshSizeMax": size, "Mesh.MeshSizeFromPoints": 0, "Mesh.MeshSizeExtendFromBoundary": 0,
+                   "Mesh.Algorithm": 6, "Mesh.Smoothing": 5, "Mesh.MshFileVersion": 2.2, "Mesh.Binary": 0}
+        for option, value in {**options, **(gmsh_options or {})}.items():
             gmsh.option.setNumber(option, value)
         gmsh.model.mesh.generate(2)
         out.parent.mkdir(parents=True, exist_ok=True)

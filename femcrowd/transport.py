@@ -33,11 +33,15 @@ class UpwindTransport:
         out0 = np.maximum(a0, 0.0)           # k0 -> k1 (or out through an exit), carries rho_k0
         out1 = np.maximum(-a1, 0.0) * inner  # k1 -> k0, carries rho_k1 (exits give no inflow)
         i, j = k0[inner], k1[inner]
-        rows = np.concatenate([k0, j, j, i])
-        cols = np.concatenate([k0, i, j, j])
-        vals = np.concatenate([-out0, out0[inner], -out1[inner], out1[inner]])
+        ahead, back = out0[inner] > 0, out1[inner] > 0  # upwind: mostly one direction per facet
         n = domain.ncells
+        cells = np.arange(n)
+        rows = np.concatenate([cells, k0, j, j[ahead], i[back]])
+        cols = np.concatenate([cells, k0, j, i[ahead], j[back]])
+        vals = np.concatenate([np.zeros(n), -out0, -out1[inner], out0[inner][ahead], out1[inner][back]])
+        # every diagonal entry is stored (the update matrix sets it), no zero off the diagonal
         self.flux = sp.csr_matrix((vals, (rows, cols)), shape=(n, n))
+        self._diagonal = np.flatnonzero(self.flux.indices == np.repeat(cells, np.diff(self.flux.indptr)))
         self.exit_rate = exit_matrix(domain, out0)  # outflow rate per exit group
         self.out0, self.out1 = out0, out1
         self._update, self._update_dt = None, None  # I + dt diag(1/|K|) F for the usual dt (see step)
@@ -48,29 +52,43 @@ class UpwindTransport:
     def step(self, rho, dt):
         """rho~ and the mass that left through each exit group during dt (array, see exit_matrix).
 
-        For dt <= max_dt (CFL <= 1) every coefficient of the update is >= 0, so
-        rho~ >= 0; the clip only removes round-off of order 1e-17 at CFL = 1.
-
         From its second step on (a time-dependent U makes a new transport every
-        step), a step is one mat-vec with the update matrix B = I + dt diag(1/|K|) F,
+        step), a step is one mat-vec with the update matrix B (see update_matrix),
         built for the largest dt seen; a shorter step (cut at an output time) is the
         convex combination rho + (dt / dt_B) (B rho - rho), without rebuilding B.
+        B >= 0 entrywise, so rho >= 0 gives rho~ >= 0 exactly, in floating point too
+        (sums and products of non-negative numbers; the convex combination rounds
+        monotonically between 0 and the larger of rho, B rho). The first step,
+        rho + dt diag(1/|K|) F rho, clips the round-off of order 1e-17 at CFL = 1.
         """
+        if dt > self.max_dt:
+            raise ValueError(f"dt = {dt:.6g} exceeds the CFL limit {self.max_dt:.6g} of the upwind transport")
         if self._update_dt is None:
             self._update_dt = 0.0
             rho_t = rho + (dt / self.domain.area) * (self.flux @ rho)
+            np.maximum(rho_t, 0.0, out=rho_t)
         else:
             if dt > self._update_dt:
-                self._update = (sp.identity(len(rho), format="csr")
-                                + sp.diags(dt / self.domain.area) @ self.flux).tocsr()
+                self._update = self.update_matrix(dt)
                 self._update_dt = dt
             rho_t = self._update @ rho
             if dt < self._update_dt:
                 rho_t -= rho
                 rho_t *= dt / self._update_dt
                 rho_t += rho
-        np.maximum(rho_t, 0.0, out=rho_t)
         return rho_t, dt * (self.exit_rate @ rho)
+
+    def update_matrix(self, dt):
+        """B = I + dt diag(1/|K|) F (CSR), rho~ = B rho, with its diagonal clipped at 0.
+
+        For dt <= max_dt the diagonal 1 - dt q_K / |K| (q_K the outflow rate of K) is >= 0
+        but for round-off of order 1e-16 at CFL = 1, and the other entries are >= 0; the clip
+        moves that round-off into the matrix, once, instead of clipping rho~ every step.
+        """
+        update = self.flux.copy()
+        update.data *= np.repeat(dt / self.domain.area, np.diff(update.indptr))
+        update.data[self._diagonal] = np.maximum(update.data[self._diagonal] + 1.0, 0.0)
+        return update
 
 
 def exit_group_of_facets(domain):
