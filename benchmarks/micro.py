@@ -5,6 +5,7 @@
     python benchmarks/micro.py --n 20000 --steps 40   # large crowd (63 x 63 room, 4 doors)
     python benchmarks/micro.py --method uzawa --steps 200
     python benchmarks/micro.py --compare-solvers --n 500   # QP solvers on one jammed projection
+    python benchmarks/micro.py --steps 100 --breakdown     # where the time of a jammed step goes
 
 Prints median / mean ms per step and the evacuation time. Reference: cromosim
 (Uzawa, same room) needs 58 ms/step for N = 2000.
@@ -114,6 +115,8 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--compare-solvers", action="store_true")
     ap.add_argument("--profile", action="store_true")
+    ap.add_argument("--breakdown", action="store_true",
+                    help="active-set churn per step, and the cost of the step's parts at the last state")
     ap.add_argument("--every", type=int, default=100, help="progress line every this many steps")
     args = ap.parse_args(argv)
     if args.compare_solvers:
@@ -136,8 +139,16 @@ def main(argv=None):
 
         prof = cProfile.Profile()
         prof.enable()
+    facts, fallbacks, churn, prev_active = [], 0, [], None
     for info in sim.run(max_steps=args.steps or None):
         times.append(info.step_seconds)
+        facts.append(info.factorizations)
+        fallbacks += info.fallback
+        if args.breakdown:
+            active = active_keys(sim)
+            if prev_active is not None and len(prev_active):
+                churn.append(len(np.setxor1d(active, prev_active)) / len(prev_active))
+            prev_active = active
         worst_overlap = max(worst_overlap, info.max_overlap)
         worst_kkt = max(worst_kkt, info.kkt)
         not_conv += not info.converged
@@ -157,6 +168,51 @@ def main(argv=None):
           f"{np.percentile(times, 90):.2f}   max {times.max():.1f}   wall {wall:.1f} s")
     print(f"max overlap ever {worst_overlap:.2e} m ({worst_overlap / args.radius:.1e} r), "
           f"max KKT residual {worst_kkt:.1e}, steps not converged to tol: {not_conv}")
+    print(f"factorisations per step: median {np.median(facts):.0f}, max {max(facts)}; "
+          f"steps that needed the interior point: {fallbacks}")
+    if args.breakdown:
+        breakdown(sim, churn)
+
+
+def active_keys(sim):
+    """Active contacts (lambda > 0) of the last step, keyed by the discs' original ids."""
+    cl, big = sim.cl, 1 << 31
+    keys = np.concatenate([sim.ids[cl.pi] * big + sim.ids[cl.pj], -1 - (sim.ids[cl.wi] * big + cl.ws)])
+    return np.sort(keys[sim.lam > 0])
+
+
+def breakdown(sim, churn):
+    """Median cost of the parts of one step at the final state (20 repeats each)."""
+    from femcrowd.micro.contacts import CandidateList
+    from femcrowd.micro.projection import _NewtonMatrix, project
+
+    def med(f, k=20):
+        ts = []
+        for _ in range(k):
+            t = time.perf_counter()
+            f()
+            ts.append(time.perf_counter() - t)
+        return 1e3 * float(np.median(ts))
+
+    C = sim.constraints()
+    U = sim.desired_velocity()
+    d = np.maximum(C.D, -sim._recover) / sim.tau
+    act = sim.lam > 0
+    newton = _NewtonMatrix(C, act, None)
+    x = np.ones((C.N, 2))
+    if churn:
+        print(f"active set churn per step (|A_n xor A_n-1| / |A_n-1|): median {100 * np.median(churn):.0f} %, "
+              f"p90 {100 * np.percentile(churn, 90):.0f} %")
+    print(f"at the last state: {C.N} discs, {C.m} candidate rows, {act.sum()} active")
+    print(f"  candidate list (KD-tree) rebuild  {med(lambda: CandidateList(sim.q, sim.r, sim.walls, sim._base_skin)):7.2f} ms")
+    print(f"  constraint rows (gaps, normals)   {med(lambda: sim.cl.constraints(sim.q, sim.r, sim.walls)):7.2f} ms")
+    print(f"  Newton matrix symbolic analysis   {med(lambda: _NewtonMatrix(C, act, None), 5):7.2f} ms")
+    print(f"  one numeric factorisation         {med(lambda: newton.factor(1e4 * act)):7.2f} ms "
+          f"(I + rho B_A^T B_A, {2 * len(newton.discs)} unknowns)")
+    print(f"  one solve with it                 {med(lambda: newton.fact.solve(x[newton.discs].ravel())):7.2f} ms")
+    res = project(C, U, d, lam0=sim.lam)
+    print(f"  the projection of the next step   {med(lambda: project(C, U, d, lam0=sim.lam), 3):7.2f} ms "
+          f"({res.factorizations} factorisations, KKT {res.kkt:.1e})")
 
 
 def compare_solvers(args):

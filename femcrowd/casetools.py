@@ -58,7 +58,7 @@ def new_case(case_dir, mesh_file):
     relative = Path(os.path.relpath(mesh_file.resolve(), case_dir.resolve())).as_posix()
     group_list = ", ".join(f"{n} ({groups[n]:.3g} m)" for n in groups) or "none"
     if exits:
-        velocity = [(f'type = "exits"', "U = -speed grad d / |grad d|, d = walking distance to the nearest exit"),
+        velocity = [('type = "exits"', "U = -speed grad d / |grad d|, d = walking distance to the nearest exit"),
                     (f'speed = {_default("velocity", "speed")}', "m/s: number or expression in x, y"),
                     ('# type = "field"', "or U given by expressions in x, y, t:"), '# ux = "-1"', '# uy = "0"']
     else:

@@ -15,7 +15,9 @@ initial density). Both runs write their usual outputs (``macro/``,
 """
 
 import csv
+import xml.etree.ElementTree as ET
 from pathlib import Path
+from types import SimpleNamespace
 
 import matplotlib
 
@@ -27,7 +29,7 @@ import ot  # noqa: E402
 from matplotlib.collections import PatchCollection  # noqa: E402
 
 from .case import Case  # noqa: E402
-from .micro.run import run_micro  # noqa: E402
+from .micro.run import disc_frame, run_micro  # noqa: E402
 from .output import prepare_output_dir  # noqa: E402
 from .run import run_macro  # noqa: E402
 
@@ -66,11 +68,19 @@ def compare(case, out=None, force=False, quiet=False, pictures=4):
 
 def _frames(pvd):
     """[(time, meshio mesh)] of a .pvd written by femcrowd."""
-    import xml.etree.ElementTree as ET
-
     root = ET.parse(pvd).getroot()
-    return [(float(d.get("timestep")), meshio.read(Path(pvd).parent / d.get("file")))
+    return [(float(d.get("timestep")), _read_frame(Path(pvd).parent / d.get("file")))
             for d in root.iter("DataSet")]
+
+
+def _read_frame(path):
+    """meshio.read, except for a frame with no points (a micro run after the last disc left),
+    which meshio's VTU reader cannot decode (its data arrays are empty): the empty disc frame."""
+    piece = ET.parse(path).getroot().find(".//Piece")
+    if piece is not None and int(piece.get("NumberOfPoints", 1)) == 0:
+        return disc_frame(SimpleNamespace(q=np.zeros((0, 2)), r=np.zeros(0), u=np.zeros((0, 2)),
+                                          pressure=np.zeros(0)))
+    return meshio.read(path)
 
 
 def _cell_areas(grid):

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from femcrowd.micro import MicroSimulation, project
-from femcrowd.micro.contacts import CandidateList, Constraints, WallSet, merge_collinear
+from femcrowd.micro.contacts import CandidateList, WallSet, merge_collinear
 from femcrowd.micro.projection import kkt_residual
 from femcrowd.micro.sampling import read_discs_csv, sample_discs, target_count
 

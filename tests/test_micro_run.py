@@ -36,9 +36,13 @@ def test_shipped_micro_case_outputs_and_invariants(tmp_path):
     assert h["max_overlap"].max() <= 1e-9 * 0.2
     assert summary["discs_outside"] == 0
     assert h["contacts"].max() > 0                                            # a real jam forms
+    # frames every 10 s, the last one at the end of the run: t = 40 s, or earlier if the
+    # arch at the door gives way (frictionless discs: whether a marginal arch holds depends
+    # on round-off, e.g. the factorisation's ordering, so both outcomes are valid)
     reader = pyvista.get_reader(str(tmp_path / "discs.pvd"))
-    assert np.allclose(reader.time_values, [0, 10, 20, 30, 40])
-    reader.set_active_time_value(40.0)
+    end = h["time"][-1]
+    assert np.allclose(reader.time_values, [t for t in (0, 10, 20, 30) if t < end - 1e-9] + [min(end, 40.0)])
+    reader.set_active_time_value(reader.time_values[-1])
     cloud = reader.read()[0]
     assert cloud.n_points == h["count"][-1]
     assert {"radius", "velocity", "pressure"} <= set(cloud.point_data.keys())
@@ -85,3 +89,14 @@ def test_compare_narrow_door_macro_evacuates_faster(tmp_path):
     for name in ("comparison.csv", "evacuation.png", "macro/solution.pvd", "micro/discs.pvd"):
         assert (tmp_path / name).is_file()
     assert len(list(tmp_path.glob("side_by_side_t*.png"))) == 2
+
+
+def test_compare_reads_the_empty_disc_frames_of_a_finished_micro_run(tmp_path):
+    """Frames after the last disc left have no points (meshio cannot decode them): the comparison
+    reads them as an empty crowd, counts 0 people inside and writes its report."""
+    case = load_case(CASES / "narrow-door", ["time.end=6", "output.every=1", "initial.density=0.3 * (x > 7)"])
+    result = compare(case, tmp_path, quiet=True, pictures=2)
+    rows = result["rows"]
+    assert rows[0]["micro_inside"] > 0 and rows[-1]["micro_inside"] == 0   # all out before t = 6
+    assert rows[-1]["macro_inside"] == pytest.approx(0.0, abs=1e-6)
+    assert (tmp_path / "comparison.csv").is_file()

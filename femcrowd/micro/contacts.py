@@ -231,29 +231,28 @@ class Constraints:
         self.mp = len(self.pi)
         self.mw = len(self.wi)
         self.m = self.mp + self.mw
-        # flat column indices / coefficients of B (for B^T scatter)
         self._cols = np.concatenate(
             [2 * self.pi, 2 * self.pi + 1, 2 * self.pj, 2 * self.pj + 1, 2 * self.wi, 2 * self.wi + 1]
         )
+        self._B = self._BT = None
 
     # B v and B^T lambda ----------------------------------------------------
+    # Both go through a cached scipy CSR matrix: its compiled mat-vec is 5-10x
+    # faster than gathering/scattering with numpy fancy indexing, and the
+    # solvers call them hundreds of times per projection.
+    def _csr(self):
+        if self._B is None:
+            self._B = self.to_csr()
+            self._BT = self._B.T.tocsr()
+        return self._B, self._BT
+
     def matvec(self, v):
         """B v for velocities v (N, 2) -> (m,)."""
-        out = np.empty(self.m)
-        if self.mp:
-            dv = v[self.pi] - v[self.pj]
-            out[: self.mp] = dv[:, 0] * self.cp[:, 0] + dv[:, 1] * self.cp[:, 1]
-        if self.mw:
-            vw = v[self.wi]
-            out[self.mp :] = vw[:, 0] * self.cw[:, 0] + vw[:, 1] * self.cw[:, 1]
-        return out
+        return self._csr()[0] @ np.asarray(v, float).reshape(-1)
 
     def rmatvec(self, lam):
         """B^T lambda -> (N, 2)."""
-        lp = lam[: self.mp, None] * self.cp
-        lw = lam[self.mp :, None] * self.cw
-        w = np.concatenate([lp[:, 0], lp[:, 1], -lp[:, 0], -lp[:, 1], lw[:, 0], lw[:, 1]])
-        return np.bincount(self._cols, weights=w, minlength=2 * self.N).reshape(self.N, 2)
+        return (self._csr()[1] @ np.asarray(lam, float)).reshape(self.N, 2)
 
     def per_disc_sum(self, x):
         """Sum of a per-row quantity over the rows touching each disc (pressure)."""

@@ -21,8 +21,9 @@ lambda >= 0, (B u - d) . lambda = 0.
    the KKT residual reaches round-off although rho is large; when an
    inconsistent (hyperstatic) active set makes lambda drift along a
    self-stress (B^T dlambda = 0), the drift is extrapolated to the first
-   lambda_i = 0. Sparse Cholesky (CHOLMOD) with one symbolic analysis per
-   sparsity pattern; only discs touched by active rows enter the matrix.
+   lambda_i = 0. Sparse Cholesky (CHOLMOD); the pattern is that of all the
+   working rows, analysed once per projection and shared by the three
+   stages; only discs touched by these rows enter the matrix.
 2. If stage 1 needs more than ``max_fact`` factorisations (many contacts
    changing at once: a crowd compacting), a primal-dual interior point
    method (Mehrotra) finds the active set in ~20-35 factorisations of
@@ -64,6 +65,7 @@ class ProjectionResult:
     kkt: float
     converged: bool
     method: str
+    fallback: bool = False  # the interior point was needed (exact method)
 
     @property
     def active(self) -> int:
@@ -121,12 +123,14 @@ def project(
     reach = np.concatenate([speed[C.pi] + speed[C.pj], speed[C.wi]])
     W = (d <= 2.0 * reach + atol) | (lam > 0)
     total_it = total_fact = 0
+    fallback = False
     lam_full = lam.copy()
     for _ in range(50):
         Cw = C.subset(W) if not W.all() else C
         res = solve(Cw, d[W], lam_full[W])
         total_it += res.iterations
         total_fact += res.factorizations
+        fallback |= res.fallback
         lam_full = np.zeros(C.m)
         lam_full[np.flatnonzero(W)] = res.lam
         viol = ~W & (C.matvec(res.u) - d > atol)
@@ -134,7 +138,7 @@ def project(
             break
         W = W | viol
     kkt = kkt_residual(C, U, d, res.u, lam_full)
-    return ProjectionResult(res.u, lam_full, total_it, total_fact, kkt, kkt <= atol, res.method)
+    return ProjectionResult(res.u, lam_full, total_it, total_fact, kkt, kkt <= atol, res.method, fallback)
 
 
 # --------------------------------------------------------------------------
@@ -143,15 +147,15 @@ def project(
 
 
 class _NewtonMatrix:
-    """I + rho B_A^T B_A for active sets A inside a row superset S.
+    """I + B^T diag(w) B for row weights w >= 0 supported in a row superset S.
 
-    The pattern is that of S (symbolic factorisation once); the rows of S
-    outside A enter with weight 0, so a change of A costs one numeric
-    factorisation only.
+    The pattern is that of S (symbolic factorisation once); rows of S with
+    w = 0 keep their place in the pattern, so a new active set (w = rho on A,
+    semismooth Newton) or new barrier weights (w = lambda / s, interior point)
+    cost one numeric factorisation only.
     """
 
-    def __init__(self, C: Constraints, S, rho, backend):
-        self.S = S.copy()
+    def __init__(self, C: Constraints, S, backend):
         rs = np.flatnonzero(S)
         p = rs[rs < C.mp]
         wr = rs[rs >= C.mp] - C.mp
@@ -172,21 +176,17 @@ class _NewtonMatrix:
         cols = np.concatenate(
             [2 * nodes, 2 * nodes, 2 * nodes + 1, 2 * lo, 2 * lo + 1, 2 * lo, 2 * lo + 1, 2 * k, 2 * k + 1])
         self.base = np.concatenate(
-            [rho * c[:, 0] ** 2, rho * c[:, 0] * c[:, 1], rho * c[:, 1] ** 2,
-             -rho * cp[:, 0] ** 2, -rho * cp[:, 0] * cp[:, 1], -rho * cp[:, 0] * cp[:, 1], -rho * cp[:, 1] ** 2,
+            [c[:, 0] ** 2, c[:, 0] * c[:, 1], c[:, 1] ** 2,
+             -cp[:, 0] ** 2, -cp[:, 0] * cp[:, 1], -cp[:, 0] * cp[:, 1], -cp[:, 1] ** 2,
              np.ones(2 * n)])
         self.src = np.concatenate([src_d, src_d, src_d, p, p, p, p, np.full(2 * n, -1)])
         self.discs = discs
         self.fact = PatternFactor(rows, cols, 2 * n, backend) if n else None
 
-    def covers(self, act):
-        return not np.any(act & ~self.S)
-
-    def factor(self, act):
-        """Numeric factorisation of I + rho B_A^T B_A (act: boolean rows, or
-        non-negative row weights w giving I + rho B^T diag(w) B)."""
+    def factor(self, w):
+        """Numeric factorisation of I + B^T diag(w) B (w: one weight per row)."""
         if self.fact is not None:
-            wts = np.where(self.src >= 0, np.asarray(act, float)[np.maximum(self.src, 0)], 1.0)
+            wts = np.where(self.src >= 0, np.asarray(w, float)[np.maximum(self.src, 0)], 1.0)
             self.fact.numeric(self.base * wts)
 
 
@@ -235,15 +235,17 @@ def _line_search(v, U, delta, z, w, rho):
     return float(min(max(-c0[k] / c1[k], lo), ends[k]))
 
 
-def _ssn_alm(C: Constraints, U, d, lam, atol, max_iter, rho, backend, max_fact=None):
+def _ssn_alm(C: Constraints, U, d, lam, atol, max_iter, rho, newton, max_fact=None):
     """Semismooth Newton / multiplier iterations in incremental (refinement) form.
 
+    ``newton``: the :class:`_NewtonMatrix` of all rows of C (shared with the
+    interior point, so its symbolic analysis is done once per projection).
     The residuals r1 = U - v - B^T lam and r2 = d - B v are evaluated without
     the factor rho, and the multipliers are updated by increments, so the
     result reaches round-off accuracy although rho is large (the large rho
     only makes each multiplier update contract by 1 / (1 + rho mu)).
     """
-    N, m = C.N, C.m
+    m = C.m
     if m == 0:
         return ProjectionResult(U.copy(), lam, 0, 0, 0.0, True, "exact")
     scale = max(1.0, float(np.abs(U).max()), float(np.abs(d[np.isfinite(d)]).max(initial=0.0)))
@@ -262,10 +264,6 @@ def _ssn_alm(C: Constraints, U, d, lam, atol, max_iter, rho, backend, max_fact=N
     kkt = np.inf
     prev_step = None  # last multiplier increment (drift detection)
     hprev = None
-    newton = None
-    # rows that may become active: warm-start set and rows U pushes within reach
-    BU = C.matvec(U)
-    superset = (lam > 0) | (BU > d)
 
     def update(lam, z, act):
         """Multiplier update lam <- [z]_+ on A; when two successive increments are
@@ -316,11 +314,7 @@ def _ssn_alm(C: Constraints, U, d, lam, atol, max_iter, rho, backend, max_fact=N
         delta = None
         if delta is None:
             if fact_act is None or forced is not None or not np.array_equal(hact, fact_act):
-                if newton is None or not newton.covers(hact):
-                    # pattern: the Newton set plus the rows that U pushes towards contact
-                    S = hact | superset if newton is None else hact | newton.S | superset
-                    newton = _NewtonMatrix(C, S, rho, backend)
-                newton.factor(hact)
+                newton.factor(rho * hact)
                 fact, discs = newton.fact, newton.discs
                 nfact += 1
                 fact_act = hact
@@ -347,30 +341,34 @@ def _ssn_alm(C: Constraints, U, d, lam, atol, max_iter, rho, backend, max_fact=N
 
 
 def _exact(C: Constraints, U, d, lam, atol, max_iter, rho, backend, max_fact):
-    """Warm-started semismooth Newton; interior point + Newton polish as fallback."""
-    res = _ssn_alm(C, U, d, lam, atol, max_iter or 200, rho, backend, max_fact=max_fact)
+    """Warm-started semismooth Newton; interior point + Newton polish as fallback.
+
+    One Newton-matrix pattern (all rows of C) serves the three stages.
+    """
+    newton = _NewtonMatrix(C, np.ones(C.m, bool), backend)
+    res = _ssn_alm(C, U, d, lam, atol, max_iter or 200, rho, newton, max_fact=max_fact)
     if res.converged or C.m == 0:
         return res
-    v, lam_ipm, it_ipm = _ipm(C, U, d, lam, atol, 80, backend)
+    v, lam_ipm, it_ipm = _ipm(C, U, d, lam, atol, 80, newton)
     s = d - C.matvec(v)
-    pol = _ssn_alm(C, U, d, np.where(lam_ipm > s, lam_ipm, 0.0), atol, max_iter or 60, rho, backend)
+    pol = _ssn_alm(C, U, d, np.where(lam_ipm > s, lam_ipm, 0.0), atol, max_iter or 60, rho, newton)
     best = pol
     if not pol.converged:
         kkt_ipm = kkt_residual(C, U, d, v, lam_ipm)
         if kkt_ipm < pol.kkt:
             best = ProjectionResult(v, lam_ipm, 0, 0, kkt_ipm, False, "exact")
     return ProjectionResult(best.u, best.lam, res.iterations + it_ipm + pol.iterations,
-                            res.factorizations + it_ipm + pol.factorizations, best.kkt, best.converged, "exact")
+                            res.factorizations + it_ipm + pol.factorizations, best.kkt, best.converged,
+                            "exact", fallback=True)
 
 
-def _ipm(C: Constraints, U, d, lam0, atol, max_iter, backend, mu_stop=None, w_stop=1e14):
+def _ipm(C: Constraints, U, d, lam0, atol, max_iter, newton, mu_stop=None, w_stop=1e14):
     """Primal-dual interior point (Mehrotra predictor-corrector) for the QP.
 
     Robust whatever the active-set changes (used when the semismooth Newton
     needs too many factorisations, e.g. a crowd jamming at once). The Newton
-    matrix I + B^T diag(lam / s) B keeps one sparsity pattern: symbolic
-    factorisation once, one numeric factorisation per iteration.
-    Returns (v, lam, iterations).
+    matrix I + B^T diag(lam / s) B keeps one sparsity pattern: one numeric
+    factorisation per iteration. Returns (v, lam, iterations).
     """
     m = C.m
     scale = max(1.0, float(np.abs(U).max()))
@@ -379,7 +377,6 @@ def _ipm(C: Constraints, U, d, lam0, atol, max_iter, backend, mu_stop=None, w_st
     v = U.copy()
     s = np.maximum(d - C.matvec(v), 1e-2 * scale)
     lam = np.maximum(lam0, 1e-2 * scale)
-    newton = _NewtonMatrix(C, np.ones(m, bool), 1.0, backend)
     it = 0
     for it in range(1, max_iter + 1):
         rd = v - U + C.rmatvec(lam)

@@ -54,6 +54,7 @@ class StepInfo:
     factorizations: int
     kkt: float
     converged: bool
+    fallback: bool  # the exact projection needed its interior-point stage
     rebuilds: int  # candidate-list rebuilds in this step
     candidates: int
     step_seconds: float
@@ -281,6 +282,7 @@ class MicroSimulation:
             factorizations=0 if res is None else res.factorizations,
             kkt=0.0 if res is None else res.kkt,
             converged=True if res is None else res.converged,
+            fallback=False if res is None else res.fallback,
             rebuilds=rebuilds,
             candidates=0 if self.cl is None else self.cl.m,
             step_seconds=_time.perf_counter() - t_start,
