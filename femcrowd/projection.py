@@ -46,7 +46,7 @@ from scipy.sparse.csgraph import connected_components
 
 #: layers of neighbours around S in the envelope of a factorisation (the front moves a few cells per step)
 ENVELOPE_LAYERS = 8
-#: a factorisation whose envelope is more than 1 / SHRINK times S is replaced by a tighter one
+#: a factorisation is replaced by a tighter one when S shrinks below SHRINK times the S it was made for
 SHRINK = 0.6
 #: density tolerance of the intermediate active-set iterations (only their signs matter)
 LOOSE = 1e-6
@@ -296,7 +296,7 @@ class Projection:
         if len(cells) <= self.direct_max:
             factor = self.factor if self.reuse else None
             if factor is None or not factor.fits(cells):
-                factor = self.factor = _EnvelopeCholesky(self.A, self._envelope(cells))
+                factor = self.factor = _EnvelopeCholesky(self.A, self._envelope(cells), len(cells))
                 info["rebuilds"] += 1
             factor.refactor(cells)
             info["setup"] += clock.lap()
@@ -348,8 +348,9 @@ class _EnvelopeCholesky:
     CHOLMOD already at 2.6 10^4 cells (docs/performance.md).
     """
 
-    def __init__(self, A, envelope):
-        self.cells = envelope
+    def __init__(self, A, envelope, size):
+        """envelope: the cells of E (sorted); size: |S| of the S that E was made around."""
+        self.cells, self.size = envelope, size
         lower = sp.tril(A[envelope][:, envelope], format="csc")
         lower.sort_indices()  # column by column, rows sorted: cvxopt's storage order
         self.row = lower.indices
@@ -363,8 +364,9 @@ class _EnvelopeCholesky:
         self.mask = np.zeros(len(envelope), bool)
 
     def fits(self, cells):
-        """cells inside the envelope and filling enough of it (else a new, tighter one pays off)."""
-        if len(cells) < SHRINK * len(self.cells):
+        """cells inside the envelope, and not fewer than SHRINK times the S it was made around
+        (else a new, tighter one pays off)."""
+        if len(cells) < SHRINK * self.size:
             return False
         position = np.minimum(np.searchsorted(self.cells, cells), len(self.cells) - 1)
         return bool(np.all(self.cells[position] == cells))
