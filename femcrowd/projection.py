@@ -57,6 +57,10 @@ SPILL_SWEEPS = 8
 MAX_SPILLS = 16
 #: solves are tight from the iteration that changes fewer than this fraction of S
 TIGHT_SWITCH = 1e-3
+#: an S that grows by at most this many cells from the factorised one is solved by bordering (a Schur
+#: complement on the new cells: k + 1 forward and one backward substitution with the kept factor) instead
+#: of a new numeric factorisation; one substitution costs ~1/20 of a factorisation at 10^5-10^6 unknowns
+BORDER_MAX = 8
 #: round-off of (A phi)_K in units of eps * A_KK * max|phi| (floor of the iterative stopping test)
 ROUNDOFF = 64 * np.finfo(float).eps
 
@@ -72,7 +76,13 @@ class Projection:
         self.A = domain.laplacian()
         self.A.sort_indices()
         self.area = domain.area
-        self.has_exit = np.bincount(domain.f2t[0][domain.exit], minlength=domain.ncells) > 0
+        has_exit = np.bincount(domain.f2t[0][domain.exit], minlength=domain.ncells) > 0
+        # A component of S is a closed, fully saturated room (A_SS singular, pure Neumann) exactly when
+        # it is a whole connected component of A's graph with no exit cell: found once here.
+        ncomp, self.component = connected_components(self.A, directed=False)
+        self.closed = np.bincount(self.component, has_exit, ncomp) == 0
+        self.component_size = np.bincount(self.component, minlength=ncomp)
+        self.first_cell = np.unique(self.component, return_index=True)[1]  # the gauge cell of a closed room
         self.direct_max = direct_max
         self.tol = tol
         # S grows by about one layer of cells per iteration, so a stiff front (rho ~ 0.999 running
@@ -93,26 +103,26 @@ class Projection:
         """Return (rho, phi, info) for one correction step.
 
         info: iterations (active-set iterations, each with a solve to the tolerance, or a loose
-        one on the AMG path), linear_residual (max |r_K| / |K| of the linear solves), unknowns
-        (|S|), linear_iterations (CG of the AMG path), rebuilds (new envelopes / AMG set-ups), and
-        seconds spent in detect (rho~ > 1), setup (numeric factorisations, AMG set-ups), solve
-        and active_set (everything else).
+        one on the AMG path), factorizations (numeric Cholesky factorisations among them),
+        linear_residual (max |r_K| / |K| of the linear solves), unknowns (|S|), linear_iterations
+        (CG of the AMG path), rebuilds (new envelopes / AMG set-ups), and seconds spent in detect
+        (rho~ > 1), setup (numeric factorisations, AMG set-ups), solve and active_set (everything else).
         """
         clock = _Clock()
         b = self.area * (1.0 - rho_tilde)
         over = np.flatnonzero(b < 0)
-        info = {"iterations": 0, "linear_residual": 0.0, "unknowns": 0, "linear_iterations": 0,
-                "rebuilds": 0, "setup": 0.0, "solve": 0.0}
+        info = {"iterations": 0, "factorizations": 0, "linear_residual": 0.0, "unknowns": 0,
+                "linear_iterations": 0, "rebuilds": 0, "setup": 0.0, "solve": 0.0}
         if not over.size:
             self.active, self.phi_active = np.zeros(0, np.intp), np.zeros(0)
             info.update(detect=clock.lap(), active_set=0.0)
             return rho_tilde.copy(), np.zeros_like(b), info
         # cells that enter S wherever they are (w = b off the neighbourhood of S)
         strict = over[b[over] < -self.tol * self.area[over]]
-        S = self._union(over, self.active)
-        x0 = self._carry(self.active, self.phi_active, S)
         info["detect"] = clock.lap()
         spills, tight = 0, False  # inexact Newton: loose solves until S (nearly) settles, then tight ones
+        S = self._union(over, self.active)
+        x0 = self._carry(self.active, self.phi_active, S)
         if self.active.size:  # warm start: one active-set update with the previous phi, no solve
             S, x0 = self._update(S, x0, b, strict)
             spills, tight = 1, self._changed(self.active, S) <= TIGHT_SWITCH * len(S)
@@ -120,16 +130,20 @@ class Projection:
             rows = self.A[S]
             L, col, in_S, s_in_L = self._neighbourhood(rows, S)
             tight = tight or len(S) <= self.direct_max  # a factorisation solves exactly anyway
-            phi_S = self._solve(rows, S, col, in_S, -b[S], x0, info, self.tol if tight else max(self.tol, LOOSE))
+            phi_S, keep = self._solve(rows, S, col, in_S, -b[S], x0, info,
+                                      self.tol if tight else max(self.tol, LOOSE))
             Aphi = _product(rows, col, len(L), phi_S)
-            new = self._next(S, phi_S, b, strict, L, in_S, s_in_L, Aphi)
+            w = b[L] + Aphi
+            # the residual of the linear solve (w = 0 on S but in the gauge cells of closed rooms)
+            info["linear_residual"] = float(np.max(np.abs(w[s_in_L][keep]) / self.area[S[keep]], initial=0.0))
+            new = self._next(S, phi_S, w, strict, L, in_S, s_in_L)
             if np.array_equal(new, S):
                 if tight:
                     break
                 tight, x0 = True, phi_S  # S settled on a loose solve: solve it again exactly
                 continue
             if spills < MAX_SPILLS and self._changed(S, new) == len(new) - len(S):  # S only grows:
-                new, spills = self._spill(S, new, b, L, b[L] + Aphi), spills + 1  # spread the overflow
+                new, spills = self._spill(S, new, b, L, w), spills + 1  # spread the overflow
             tight = tight or self._changed(S, new) <= TIGHT_SWITCH * len(S)
             x0 = self._carry(S, phi_S, new)
             S = new
@@ -160,9 +174,8 @@ class Projection:
         self._mark[S] = False
         return len(new) + len(S) - 2 * kept
 
-    def _next(self, S, phi_S, b, strict, L, in_S, s_in_L, Aphi):
+    def _next(self, S, phi_S, w, strict, L, in_S, s_in_L):
         """The active-set update: S <- {phi >= 0 on S} U {w < 0 off S}, with w = b + A phi on L."""
-        w = b[L] + Aphi
         phi_L = np.zeros(len(L))
         phi_L[s_in_L] = phi_S
         # A cell of S with phi = 0 (and w = 0) solves the LCP whether it is in S or not; it
@@ -178,8 +191,8 @@ class Projection:
         """One active-set update from a given phi on S (no solve); returns the new S and phi on it."""
         rows = self.A[S]
         L, col, in_S, s_in_L = self._neighbourhood(rows, S)
-        Aphi = _product(rows, col, len(L), phi_S)
-        new = self._spill(S, self._next(S, phi_S, b, strict, L, in_S, s_in_L, Aphi), b, L, b[L] + Aphi)
+        w = b[L] + _product(rows, col, len(L), phi_S)
+        new = self._spill(S, self._next(S, phi_S, w, strict, L, in_S, s_in_L), b, L, w)
         return new, self._carry(S, phi_S, new)
 
     def _spill(self, S, new, b, L, w):
@@ -254,43 +267,35 @@ class Projection:
         return L, col, in_S, s_in_L
 
     def _solve(self, rows, S, col, in_S, rhs, x0, info, tol):
-        """Solve A_SS phi_S = rhs.
+        """Solve A_SS phi_S = rhs; returns phi_S and the mask of the cells of S whose equation holds.
 
-        A connected component of S with no exit facet and no neighbour outside S
-        is a closed, fully saturated room: A is singular there (pure Neumann) and
-        the solution is fixed up to a constant. We pin one cell of each such
-        component (phi = 0), solve, then shift the component so that min phi = 0
-        (the gauge of the design note); the incompatibility of the data, pure
+        A closed room (a component of A's graph with no exit) that is entirely in S is fully
+        saturated: A is singular there (pure Neumann) and the solution is fixed up to a
+        constant. We pin its first cell (phi = 0), solve, then shift the room so that
+        min phi = 0 (the gauge of the design note); the incompatibility of the data, pure
         round-off since the mass fits, lands in the pinned cell.
         """
-        m = len(S)
-        length = np.diff(rows.indptr)
-        inside = in_S[col]
-        row = np.repeat(np.arange(m), length)
-        count = np.bincount(row[inside], minlength=m)
-        A_SS = sp.csr_matrix((rows.data[inside], (np.cumsum(in_S) - 1)[col[inside]],
-                              np.concatenate([[0], np.cumsum(count)])), shape=(m, m))
-        coupled = self.has_exit[S] | (count < length)
-        ncomp, label = connected_components(A_SS, directed=False)
-        floating = np.bincount(label, coupled, ncomp) == 0
-        keep = np.ones(m, bool)
-        if floating.any():
-            keep[np.unique(label[floating[label]], return_index=True)[1]] = False
-        K = A_SS[keep][:, keep] if not keep.all() else A_SS
-        x = np.zeros(m)
-        if K.shape[0] > 0:
-            x[keep] = self._linear_solve(K, S[keep], rhs[keep], x0[keep], info, tol)
-        if floating.any():
-            lowest = np.full(ncomp, np.inf)
+        full = np.zeros(0, np.intp)
+        if self.closed.any():
+            inside = np.bincount(self.component[S], minlength=len(self.closed))
+            full = np.flatnonzero(self.closed & (inside == self.component_size))
+        keep = np.ones(len(S), bool)
+        keep[np.searchsorted(S, self.first_cell[full])] = False
+        x = np.zeros(len(S))
+        if keep.any():
+            def matrix():  # A on S[keep], for the AMG path only
+                A_SS = _restriction(rows, col, in_S)
+                return A_SS if keep.all() else A_SS[keep][:, keep]
+            x[keep] = self._linear_solve(matrix, S[keep], rhs[keep], x0[keep], info, tol)
+        if full.size:
+            label = self.component[S]
+            lowest = np.full(len(self.closed), np.inf)
             np.minimum.at(lowest, label, x)
-            x -= np.where(floating[label], lowest[label], 0.0)
-        r = (A_SS @ x - rhs)[keep]
-        # of the last (tight) solve; nothing is solved when every cell of S is a pinned gauge cell
-        info["linear_residual"] = float(np.max(np.abs(r) / self.area[S[keep]], initial=0.0))
-        return x
+            x -= np.where(np.isin(label, full), lowest[label], 0.0)
+        return x, keep
 
-    def _linear_solve(self, K, cells, rhs, x0, info, tol):
-        """K x = rhs (K = A on `cells`): factorised up to ``direct_max`` unknowns, else AMG + CG to the
+    def _linear_solve(self, matrix, cells, rhs, x0, info, tol):
+        """A_SS x = rhs on S = cells (matrix() builds A_SS): factorised up to ``direct_max`` unknowns, else AMG + CG to the
         density tolerance tol from x0."""
         clock = _Clock()
         if len(cells) <= self.direct_max:
@@ -298,15 +303,16 @@ class Projection:
             if factor is None or not factor.fits(cells):
                 factor = self.factor = _EnvelopeCholesky(self.A, self._envelope(cells), len(cells))
                 info["rebuilds"] += 1
-            factor.refactor(cells)
+            info["factorizations"] += factor.prepare(cells)
             info["setup"] += clock.lap()
-            x = factor.solve(rhs)
+            x = factor.solve(cells, rhs)
             info["solve"] += clock.lap()
             return x
         # An AMG hierarchy is reused only on the same S: one built for an S that differs by 24
         # cells out of 3 10^5 (embedded, Jacobi on the new cells) took 29-37 CG iterations where
         # a new one took 11-16, and 500 changed cells took 54 instead of 5, more than the set-up
         # (~15 iterations) it saves.
+        K = matrix()
         hierarchy = self.hierarchy if self.reuse else None
         if hierarchy is None or not np.array_equal(hierarchy.cells, cells):
             hierarchy = self.hierarchy = _Hierarchy(K, cells)
@@ -346,11 +352,21 @@ class _EnvelopeCholesky:
     rather than scipy's SuperLU: on the 2.6 10^5-cell saturated zone of the benchmark hall it
     factorises in 0.17 s, where a Ruge-Stuben set-up takes 0.30 s; SuperLU took 8x as long as
     CHOLMOD already at 2.6 10^4 cells (docs/performance.md).
+
+    An S that grows from the factorised S_0 by a few cells J (the last stragglers of an
+    active-set iteration) is solved by bordering: with C = A_{S_0 J},
+
+        Sigma = A_JJ - C^T A_00^{-1} C,   x_J = Sigma^{-1} (b_J - C^T A_00^{-1} b_0),
+        x_0 = A_00^{-1} (b_0 - C x_J),
+
+    through the factor P A_00 P^T = L D L^T: |J| + 1 forward substitutions and one backward.
     """
 
     def __init__(self, A, envelope, size):
         """envelope: the cells of E (sorted); size: |S| of the S that E was made around."""
-        self.cells, self.size = envelope, size
+        self.A, self.cells, self.size = A, envelope, size
+        self.position = np.full(A.shape[0], -1, np.intp)  # position of a cell in E (-1: not in E)
+        self.position[envelope] = np.arange(len(envelope))
         lower = sp.tril(A[envelope][:, envelope], format="csc")
         lower.sort_indices()  # column by column, rows sorted: cvxopt's storage order
         self.row = lower.indices
@@ -360,36 +376,84 @@ class _EnvelopeCholesky:
         self.matrix = cvxopt.spmatrix(1.0, cvxopt.matrix(self.row.astype(int)), cvxopt.matrix(self.col.astype(int)),
                                       (len(envelope), len(envelope)))
         self.symbolic = cholmod.symbolic(self.matrix, uplo="L")
-        self.active = None                 # positions of S in the envelope, as last factorised
-        self.mask = np.zeros(len(envelope), bool)
+        self.active = None                 # positions of the factorised S in E
+        self.mask = np.zeros(len(envelope), bool)  # the factorised S as a mask on E
+        self.inverse_d = None              # D^{-1} of the factor (ones for a supernodal L L^T)
 
     def fits(self, cells):
         """cells inside the envelope, and not fewer than SHRINK times the S it was made around
         (else a new, tighter one pays off)."""
-        if len(cells) < SHRINK * self.size:
-            return False
-        position = np.minimum(np.searchsorted(self.cells, cells), len(self.cells) - 1)
-        return bool(np.all(self.cells[position] == cells))
+        return len(cells) >= SHRINK * self.size and bool(np.all(self.position[cells] >= 0))
 
-    def refactor(self, cells):
-        """Numeric factorisation of K for S = cells (nothing to do when S is the last one)."""
-        active = np.searchsorted(self.cells, cells)
-        if self.active is not None and np.array_equal(active, self.active):
-            return
-        self.active = active
+    def needs_factorisation(self, cells):
+        """False when S = cells is the factorised S or grows from it by at most BORDER_MAX cells."""
+        if self.active is None:
+            return True
+        kept = np.count_nonzero(self.mask[self.position[cells]])
+        return kept != len(self.active) or len(cells) - kept > BORDER_MAX
+
+    def prepare(self, cells):
+        """Numeric factorisation of K for S = cells when needed; returns whether one was made."""
+        if not self.needs_factorisation(cells):
+            return False
+        self.active = self.position[cells]
         self.mask[:] = False
-        self.mask[active] = True
+        self.mask[self.active] = True
         keep = self.diagonal | (self.mask[self.row] & self.mask[self.col])
         self.matrix.V = cvxopt.matrix(np.where(keep, self.values, 0.0))
         cholmod.numeric(self.matrix, self.symbolic)
+        self.inverse_d = None
+        return True
 
-    def solve(self, rhs):
-        """x on S with K x = rhs on S and 0 elsewhere."""
+    def solve(self, cells, rhs):
+        """x on S = cells with A_SS x = rhs (after prepare(cells))."""
+        at = self.position[cells]
+        old = self.mask[at]
+        if old.all():
+            return self._substitute(self.active, rhs)
+        new = at[~old]
+        rows = self.A[self.cells[new]]
+        k = len(new)
+        row = np.repeat(np.arange(k), np.diff(rows.indptr))
+        position = self.position[rows.indices]
+        coupled = (position >= 0) & self.mask[position]  # entries of C^T = A_{J S_0}
+        j = np.minimum(np.searchsorted(new, position), k - 1)
+        within = new[j] == position                       # entries of A_JJ
+        A_JJ = np.zeros((k, k))
+        np.add.at(A_JJ, (row[within], j[within]), rows.data[within])
+        V = np.zeros((len(self.cells), k + 1), order="F")  # [b_0 | C], then L^{-1} P [b_0 | C]
+        V[self.active, 0] = rhs[old]
+        V[position[coupled], 1 + row[coupled]] = rows.data[coupled]
+        V = self._forward(V)
+        if self.inverse_d is None:
+            self.inverse_d = np.array(self._apply(np.ones(len(self.cells)), 6)).ravel()
+        DV = self.inverse_d[:, None] * V
+        sigma = A_JJ - V[:, 1:].T @ DV[:, 1:]
+        x = np.empty(len(at))
+        x[~old] = np.linalg.solve(sigma, rhs[~old] - V[:, 1:].T @ DV[:, 0])
+        x[old] = self._backward(DV[:, 0] - DV[:, 1:] @ x[~old])[self.active]
+        return x
+
+    def _substitute(self, positions, rhs):
+        """K^{-1} b for b = rhs on the given positions and 0 elsewhere, on those positions."""
         b = np.zeros(len(self.cells))
-        b[self.active] = rhs
-        b = cvxopt.matrix(b)
-        cholmod.solve(self.symbolic, b)
-        return np.array(b).ravel()[self.active]
+        b[positions] = rhs
+        return np.array(self._apply(b, 0)).ravel()[positions]
+
+    def _forward(self, b):
+        """L^{-1} P b."""
+        return np.array(self._apply(self._apply(b, 7), 4)).reshape(b.shape, order="F")
+
+    def _backward(self, y):
+        """P^T L^{-T} y (y already scaled by D^{-1})."""
+        return np.array(self._apply(self._apply(y, 5), 8)).ravel()
+
+    def _apply(self, b, system):
+        """CHOLMOD's solve of one of its systems (0: K, 4: L, 5: L^T, 6: D, 7: P, 8: P^T), in place
+        for a cvxopt matrix b, else on a copy."""
+        b = b if isinstance(b, cvxopt.matrix) else cvxopt.matrix(b)
+        cholmod.solve(self.symbolic, b, sys=system)
+        return b
 
 
 class _Hierarchy:
@@ -401,6 +465,16 @@ class _Hierarchy:
 
     def vcycle(self, r):
         return vcycle(self.ml, r)
+
+
+def _restriction(rows, col, in_S):
+    """A_SS as a CSR matrix from rows = A[S] (col: positions of its entries in L, in_S: S as a mask on L)."""
+    m = len(rows.indptr) - 1
+    inside = in_S[col]
+    row = np.repeat(np.arange(m), np.diff(rows.indptr))
+    count = np.bincount(row[inside], minlength=m)
+    return sp.csr_matrix((rows.data[inside], (np.cumsum(in_S) - 1)[col[inside]],
+                          np.concatenate([[0], np.cumsum(count)])), shape=(m, m))
 
 
 def _product(rows, col, size, phi_S):

@@ -7,7 +7,7 @@ import pytest
 
 from femcrowd.expressions import Expression
 from femcrowd.mesh import load_domain
-from femcrowd.projection import Projection
+from femcrowd.projection import BORDER_MAX, Projection
 from femcrowd.transport import UpwindTransport
 from femcrowd.velocity import FieldVelocity
 
@@ -63,8 +63,35 @@ def test_envelope_factorisation_solves_every_saturated_set_inside_it():
     for threshold in (7.0, 5.0, 6.0, 4.5):  # S grows, shrinks and grows again inside E
         S = np.flatnonzero(x > threshold)
         assert factor.fits(S) == (len(S) >= 0.6 * len(envelope))  # made for S = E here
-        factor.refactor(S)
+        assert factor.prepare(S)  # a new S: one numeric factorisation
         rhs = rng.uniform(0.5, 1.0, len(S)) * domain.area[S]
         reference = spla.spsolve(A[S][:, S].tocsc(), rhs)
-        assert np.abs(factor.solve(rhs) - reference).max() <= 1e-10 * np.abs(reference).max()
+        assert np.abs(factor.solve(S, rhs) - reference).max() <= 1e-10 * np.abs(reference).max()
+        assert not factor.prepare(S)  # the same S again: none
     assert not factor.fits(np.flatnonzero(x > 3.0))  # S leaves E: a new envelope is needed
+
+
+@pytest.mark.parametrize("grown", [1, 2, BORDER_MAX])
+def test_bordered_solve_of_a_few_new_cells_equals_a_fresh_solve(grown):
+    """S_0 factorised, S = S_0 + a few cells (neighbours of S_0, and cells that touch only each other):
+    the bordered solve (Schur complement on the new cells) needs no factorisation and equals sparse LU."""
+    import scipy.sparse.linalg as spla
+
+    from femcrowd.projection import _EnvelopeCholesky
+
+    domain = load_domain(MESHES / "room_one_door.msh", ["exit"])
+    A = domain.laplacian().tocsr()
+    x = domain.centroid[:, 0]
+    S0 = np.flatnonzero(x > 6.0)
+    factor = _EnvelopeCholesky(A, np.flatnonzero(x > 4.0), len(S0))
+    assert factor.prepare(S0)
+    front = np.setdiff1d(A[S0].indices, S0)                 # the neighbour layer of S_0
+    second = np.setdiff1d(A[front].indices, np.union1d(S0, front))
+    J = np.concatenate([front[:grown - grown // 2], second[:grown // 2]])  # coupled to S_0 and/or each other
+    S = np.union1d(S0, J)
+    assert len(S) == len(S0) + grown
+    assert not factor.prepare(S)
+    rhs = np.random.default_rng(grown).uniform(0.5, 1.0, len(S)) * domain.area[S]
+    reference = spla.spsolve(A[S][:, S].tocsc(), rhs)
+    assert np.abs(factor.solve(S, rhs) - reference).max() <= 1e-10 * np.abs(reference).max()
+    assert factor.prepare(np.union1d(S, front[:BORDER_MAX + 1]))  # too many new cells: factorise
