@@ -154,6 +154,7 @@ def one_size(target, steps):
     out["iterations_mean"] = float(np.mean([r["iterations"] for r in warm]))
     out["iterations_max"] = int(max(r["iterations"] for r in warm))
     out["iterations_cold"] = record[0]["iterations"]
+    out["factorizations_mean"] = float(np.mean([r["factorizations"] for r in warm]))
     out["amg_fresh"] = median("amg_fresh", sampled)
     out["amg_fresh_setup"] = median("amg_fresh_setup", sampled)
     out["amg_fresh_iterations"] = median("amg_fresh_iterations", sampled)
@@ -209,6 +210,7 @@ ROWS = [("triangles", "triangles", "{:.0f}"), ("mesh load [s]", "mesh_load", "{:
         ("  unknowns (cells in S)", "unknowns", "{:.0f}"), ("  active-set iterations (median)", "iterations", "{:.0f}"),
         ("  active-set iterations mean / max (warm-started steps)", None, None),
         ("  active-set iterations, cold first step", "iterations_cold", "{:.0f}"),
+        ("  numeric factorisations per step, mean (warm-started steps)", "factorizations_mean", "{:.2f}"),
         ("  CG iterations per step", "linear_iterations", "{:.0f}"),
         ("  new envelopes or AMG set-ups per step (median)", "rebuilds", "{:.0f}"),
         ("one fresh AMG solve [ms]", "amg_fresh", "ms"), ("  its set-up [ms]", "amg_fresh_setup", "ms"),
