@@ -299,8 +299,8 @@ class Projection:
         return x, keep
 
     def _linear_solve(self, matrix, cells, rhs, x0, info, tol):
-        """A_SS x = rhs on S = cells (matrix() builds A_SS): factorised up to ``direct_max`` unknowns, else AMG + CG to the
-        density tolerance tol from x0."""
+        """A_SS x = rhs on S = cells: factorised up to ``direct_max`` unknowns, else AMG + CG (on the
+        matrix() builds) to the density tolerance tol from x0."""
         clock = _Clock()
         if len(cells) <= self.direct_max:
             factor = self.factor if self.reuse else None
@@ -414,7 +414,7 @@ class _EnvelopeCholesky:
         at = self.position[cells]
         old = self.mask[at]
         if old.all():
-            return self._substitute(self.active, rhs)
+            return self._substitute(rhs)
         new = at[~old]
         rows = self.A[self.cells[new]]
         k = len(new)
@@ -438,11 +438,11 @@ class _EnvelopeCholesky:
         x[old] = self._backward(DV[:, 0] - DV[:, 1:] @ x[~old])[self.active]
         return x
 
-    def _substitute(self, positions, rhs):
-        """K^{-1} b for b = rhs on the given positions and 0 elsewhere, on those positions."""
+    def _substitute(self, rhs):
+        """K^{-1} b on the factorised S, for b = rhs there and 0 elsewhere."""
         b = np.zeros(len(self.cells))
-        b[positions] = rhs
-        return np.array(self._apply(b, 0)).ravel()[positions]
+        b[self.active] = rhs
+        return np.array(self._apply(b, 0)).ravel()[self.active]
 
     def _forward(self, b):
         """L^{-1} P b."""
