@@ -61,10 +61,10 @@ MAX_SPILLS = 16
 TIGHT_SWITCH = 1e-3
 #: an S that grows by at most this many cells from the factorised one is solved by bordering (a Schur
 #: complement on the new cells: k + 1 forward and one backward substitution with the kept factor) instead
-#: of a new numeric factorisation. Measured at 2.6 10^4 and 2.6 10^5 unknowns (cvxopt's CHOLMOD
-#: substitutes column by column): 0.3-0.4 of a factorisation and solve for k <= 2, 0.8-0.9 for k = 8,
-#: 1.5-1.7 for k = 16
-BORDER_MAX = 8
+#: of a new numeric factorisation. `python benchmarks/bordering.py` (2.6 10^4 and 2.6 10^5 unknowns;
+#: cvxopt's CHOLMOD substitutes column by column): 0.16-0.31 of a factorisation and solve for k = 1,
+#: 0.44-0.46 for k = 8, 0.77-0.81 for k = 16, 1.9-2.7 for k = 32
+BORDER_MAX = 16
 #: round-off of (A phi)_K in units of eps * A_KK * max|phi| (floor of the iterative stopping test)
 ROUNDOFF = 64 * np.finfo(float).eps
 
