@@ -13,17 +13,24 @@ S <- {phi >= 0 on S} U {w < 0 off S}; for an M-matrix this terminates in
 finitely many steps.
 
 Cost (docs/performance.md), with the result unchanged:
-- warm start: S and phi of the previous step give, without a solve, a first
-  active-set update; a dense crowd moves the front of the saturated zone by
-  several cells per step while an iteration adds one layer, so the overflow of
-  the cells that join is spread to the next ones (a few sweeps of a divisible
-  sandpile, _spill) to guess the new S; the iteration then decides;
+- warm start: a dense crowd moves the front of the saturated zone by several
+  cells per step while an active-set iteration adds one layer. With a kept
+  factorisation (and an S of at least PREDICT_MIN cells), S and phi are
+  predicted without a new one (_predict):
+  alternating Schwarz between the factorised previous S (one substitution) and
+  the band of cells around the front (local active-set iterations, small
+  sparse solves); the exact iterations then start from that S and decide.
+  Without one (AMG path), the previous phi gives a first active-set update and
+  the overflow of the cells that join is spread to the next ones (a few sweeps
+  of a divisible sandpile, _spill); that spill also speeds up cold starts;
 - inexact Newton (AMG): intermediate iterations solve to a loose density tolerance
   (only their signs matter); from the iteration where S (nearly) settles, the
   solves are tight, and the loop stops only on an S reproduced by a tight solve;
-- all work after the O(n) test rho~ > 1 is restricted to S and its neighbour
-  layer L (index arrays, persistent scratch vectors, no full-length temporaries);
-- systems up to ``direct_max`` unknowns are factorised (sparse Cholesky): the
+- the exact iterations work on S and its neighbour layer L only (index arrays,
+  persistent scratch vectors, no full-length temporaries); the predictor makes
+  a few O(n) passes (masks, four mat-vecs with A) per step, ~1 % of its cost;
+- systems up to ``direct_max`` unknowns are factorised (sparse Cholesky, in a
+  nested-dissection order of the mesh computed once): the
   symbolic analysis of an envelope of S (S and a few layers of neighbours) is
   kept between iterations and steps, so a new S inside it costs one numeric
   factorisation, and an S that only adds a few cells to the factorised one (the
@@ -38,11 +45,13 @@ Cost (docs/performance.md), with the result unchanged:
 """
 
 import time
+from contextlib import contextmanager
 
 import cvxopt
 import cvxopt.cholmod as cholmod
 import numpy as np
 import pyamg
+import pymetis
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
@@ -65,6 +74,19 @@ TIGHT_SWITCH = 1e-3
 #: cvxopt's CHOLMOD substitutes column by column): 0.16-0.31 of a factorisation and solve for k = 1,
 #: 0.44-0.46 for k = 8, 0.77-0.81 for k = 16, 1.9-2.7 for k = 32
 BORDER_MAX = 16
+#: the warm-start predictor (_predict): layers of cells of S around the cells that join it (outside the
+#: factorised set) in the band of the local solves, and global corrections (substitutions with the kept
+#: factor) after the first pass. On the 10^6-triangle hall (5.4 10^5 cells in S, ~700 joining per step) the
+#: guess then misses 2-8 cells (bordered, no factorisation); with 8 layers and no correction, 30-50; with 32
+#: layers and none, 7-16 for a band 5x as large
+FRONT_LAYERS = 8
+PREDICTOR_ROUNDS = 1
+#: local active-set iterations per round of the predictor (a cap: 3-4 are used on the benchmark hall)
+MAX_LOCAL = 10
+#: the predictor is used from this size of the last S: below it, its fixed cost (~30 numpy calls and a
+#: small CHOLMOD solve per local iteration) exceeds the factorisations it saves (benchmark hall at 10^4
+#: triangles, 3.9 10^3 cells in S: 9-12 ms against 3-4 ms for a factorisation)
+PREDICT_MIN = 10_000
 #: round-off of (A phi)_K in units of eps * A_KK * max|phi| (floor of the iterative stopping test)
 ROUNDOFF = 64 * np.finfo(float).eps
 
@@ -87,6 +109,9 @@ class Projection:
         self.closed = np.bincount(self.component, has_exit, ncomp) == 0
         self.component_size = np.bincount(self.component, minlength=ncomp)
         self.first_cell = np.unique(self.component, return_index=True)[1]  # the gauge cell of a closed room
+        self.gauge = np.zeros(domain.ncells, bool)  # those cells: never in a band of the predictor, whose
+        self.gauge[self.first_cell[self.closed]] = True  # solves are then never singular
+        self.adjacent = _adjacency_table(self.A)
         self.direct_max = direct_max
         self.tol = tol
         # S grows by about one layer of cells per iteration, so a stiff front (rho ~ 0.999 running
@@ -98,6 +123,7 @@ class Projection:
         self.phi_active = np.zeros(0)           # phi on it: the initial guess of the next solve
         self.factor = None                      # the kept _EnvelopeCholesky
         self.hierarchy = None                   # the kept _Hierarchy
+        self.order = None                       # nested-dissection rank of every cell (on first factorisation)
         n = domain.ncells
         self._mark = np.zeros(n, bool)          # scratch, all False between uses
         self._position = np.zeros(n, np.intp)   # scratch: position of a cell in the current local set
@@ -106,17 +132,19 @@ class Projection:
     def __call__(self, rho_tilde):
         """Return (rho, phi, info) for one correction step.
 
-        info: iterations (active-set iterations, each with a solve to the tolerance, or a loose
-        one on the AMG path), factorizations (numeric Cholesky factorisations among them),
+        info: iterations (active-set iterations, each with a solve on S to the tolerance, or a
+        loose one on the AMG path), factorizations (numeric Cholesky factorisations among them),
+        band_solves (local solves of the warm-start predictor, before the iterations),
         linear_residual (max |r_K| / |K| of the linear solves), unknowns (|S|), linear_iterations
         (CG of the AMG path), rebuilds (new envelopes / AMG set-ups), and seconds spent in detect
-        (rho~ > 1), setup (numeric factorisations, AMG set-ups), solve and active_set (everything else).
+        (rho~ > 1), predict (the predictor), setup (numeric factorisations, AMG set-ups), solve
+        and active_set (everything else).
         """
         clock = _Clock()
         b = self.area * (1.0 - rho_tilde)
         over = np.flatnonzero(b < 0)
-        info = {"iterations": 0, "factorizations": 0, "linear_residual": 0.0, "unknowns": 0,
-                "linear_iterations": 0, "rebuilds": 0, "setup": 0.0, "solve": 0.0}
+        info = {"iterations": 0, "factorizations": 0, "band_solves": 0, "linear_residual": 0.0, "unknowns": 0,
+                "linear_iterations": 0, "rebuilds": 0, "predict": 0.0, "setup": 0.0, "solve": 0.0}
         if not over.size:
             self.active, self.phi_active = np.zeros(0, np.intp), np.zeros(0)
             info.update(detect=clock.lap(), active_set=0.0)
@@ -125,11 +153,16 @@ class Projection:
         strict = over[b[over] < -self.tol * self.area[over]]
         info["detect"] = clock.lap()
         spills, tight = 0, False  # inexact Newton: loose solves until S (nearly) settles, then tight ones
-        S = self._union(over, self.active)
-        x0 = self._carry(self.active, self.phi_active, S)
-        if self.active.size:  # warm start: one active-set update with the previous phi, no solve
-            S, x0 = self._update(S, x0, b, strict)
-            spills, tight = 1, self._changed(self.active, S) <= TIGHT_SWITCH * len(S)
+        if self.reuse and len(self.active) >= max(PREDICT_MIN, 1) and self.factor is not None:  # warm start
+            S, x0 = self._predict(b, strict, info)
+            info["predict"] = clock.lap()
+            spills, tight = 1, True
+        else:
+            S = self._union(over, self.active)
+            x0 = self._carry(self.active, self.phi_active, S)
+            if self.active.size:  # warm start: one active-set update with the previous phi, no solve
+                S, x0 = self._update(S, x0, b, strict)
+                spills, tight = 1, self._changed(self.active, S) <= TIGHT_SWITCH * len(S)
         for iteration in range(1, self.max_iterations + 1):
             rows = self.A[S]
             L, col, in_S, s_in_L = self._neighbourhood(rows, S)
@@ -190,6 +223,88 @@ class Projection:
         far = strict[~self._mark[strict]]
         self._mark[L] = False
         return self._union(L[stay], far) if far.size else L[stay]
+
+    def _predict(self, b, strict, info):
+        """Warm start from the kept factorisation: S and phi of this step, guessed without a new one.
+
+        Alternating Schwarz on the complementarity problem between two overlapping sets of cells:
+        - the factorised set G (the last S, but for the cells that were bordered):
+          phi_G = A_GG^{-1} (-b - A phi_{off G})_G, one substitution with the kept factor;
+        - the band B, the cells of S within FRONT_LAYERS layers of those in S outside G or next
+          to a cell that left it: local active-set iterations S <- {phi >= 0 on S} U {w < 0 off S}
+          (w = b + A phi, re-evaluated where phi changed), each followed by
+          phi_B = A_BB^{-1} (-b - A phi_{off B})_B, a sparse Cholesky solve of a few thousand unknowns.
+        The band solves carry the overflow of the cells that join to the cells it fills, many
+        layers deep, where each exact iteration adds one layer; the solve on G then brings the far
+        field. Only the guess changes: the exact iterations that follow decide.
+        """
+        A, factor, n = self.A, self.factor, len(b)
+        G = factor.factorised()
+        in_G = np.zeros(n, bool)
+        in_G[G] = True
+        inside = in_G.copy()  # S as a mask
+        inside[strict] = True
+        touched = strict      # every cell that has been in S outside G, or in G outside S
+        phi = np.zeros(n)
+        threshold = -self.tol * self.area
+        for _ in range(PREDICTOR_ROUNDS + 1):
+            phi[G] += factor.solve(G, -(b + A @ phi)[G])
+            phi[~inside] = 0.0
+            region, w = slice(None), b + A @ phi
+            for _ in range(MAX_LOCAL):
+                flips = np.where(inside[region], phi[region] < 0, w < threshold[region])
+                flips = np.flatnonzero(flips) if isinstance(region, slice) else region[flips]
+                if not flips.size:
+                    break
+                inside[flips] = ~inside[flips]
+                phi[flips] = 0.0  # the cells that leave; those that join start from 0
+                touched = self._distinct(np.concatenate([touched, flips]))
+                band = self._band(touched[inside[touched] != in_G[touched]], inside)
+                phi[band] += self._band_solve(band, -(b[band] + A[band] @ phi))
+                info["band_solves"] += 1
+                region = self._distinct(A[band].indices)  # where w and the signs of phi can have changed
+                w = b[region] + A[region] @ phi
+        S = np.flatnonzero(inside)
+        return S, phi[S]
+
+    def _band(self, changed, inside):
+        """The cells of S (mask inside) within FRONT_LAYERS layers of the cells `changed` (those in S
+        outside G and the neighbours in S of those in G outside S), but the gauge cells of closed rooms."""
+        near = np.concatenate([changed, self.adjacent[changed].ravel()])
+        front = self._distinct(near[inside[near]])
+        mark = self._mark
+        mark[front] = True
+        band = [front]
+        for _ in range(FRONT_LAYERS):
+            neighbours = self.adjacent[front].ravel()
+            front = self._distinct(neighbours[inside[neighbours] & ~mark[neighbours]])
+            mark[front] = True
+            band.append(front)
+        band = np.concatenate(band)
+        mark[band] = False
+        return band[~self.gauge[band]]
+
+    def _distinct(self, cells):
+        """The cells without repeats (in no particular order): O(len(cells)) through the scratch positions."""
+        order = np.arange(len(cells))
+        self._position[cells] = order
+        return cells[self._position[cells] == order]
+
+    def _band_solve(self, band, rhs):
+        """A_BB x = rhs on the cells B = band: sparse Cholesky (CHOLMOD) of its lower triangle."""
+        rows = self.A[band]
+        self._mark[band] = True
+        self._position[band] = np.arange(len(band))
+        row = np.repeat(np.arange(len(band)), np.diff(rows.indptr))
+        col = self._position[rows.indices]
+        lower = self._mark[rows.indices] & (col <= row)
+        self._mark[band] = False
+        K = cvxopt.spmatrix(rows.data[lower], cvxopt.matrix(row[lower]), cvxopt.matrix(col[lower]),
+                            (len(band), len(band)))
+        x = cvxopt.matrix(rhs)
+        with _cholmod_options(nmethods=1):  # the nested-dissection order of the mesh, as for the factor
+            cholmod.linsolve(K, x, p=cvxopt.matrix(np.argsort(self.nested_dissection()[band])), uplo="L")
+        return np.array(x).ravel()
 
     def _update(self, S, phi_S, b, strict):
         """One active-set update from a given phi on S (no solve); returns the new S and phi on it."""
@@ -305,7 +420,8 @@ class Projection:
         if len(cells) <= self.direct_max:
             factor = self.factor if self.reuse else None
             if factor is None or not factor.fits(cells):
-                factor = self.factor = _EnvelopeCholesky(self.A, self._envelope(cells), len(cells))
+                factor = self.factor = _EnvelopeCholesky(self.A, self._envelope(cells), len(cells),
+                                                         self.nested_dissection())
                 info["rebuilds"] += 1
             info["factorizations"] += factor.prepare(cells)
             info["setup"] += clock.lap()
@@ -317,6 +433,7 @@ class Projection:
         # a new one took 11-16, and 500 changed cells took 54 instead of 5, more than the set-up
         # (~15 iterations) it saves.
         K = matrix()
+        self.factor = None  # no longer the factorisation of the last S
         hierarchy = self.hierarchy if self.reuse else None
         if hierarchy is None or not np.array_equal(hierarchy.cells, cells):
             hierarchy = self.hierarchy = _Hierarchy(K, cells)
@@ -326,6 +443,23 @@ class Projection:
         info["solve"] += clock.lap()
         info["linear_iterations"] += its
         return x
+
+    def nested_dissection(self):
+        """Rank of every cell in a nested-dissection order of A's graph (METIS), computed on first use.
+
+        Restricted to an envelope it orders that envelope's factorisation: the separators of the
+        mesh, restricted to a subset of it, separate the subset. On the 5.4 10^5-cell saturated
+        zone of the 10^6-triangle hall the numeric factorisation takes 0.41 s instead of 0.60 s
+        in CHOLMOD's own order (AMD), and the symbolic analysis 0.15 s instead of 0.5 s; METIS
+        takes ~5 s, once, for the 10^6 cells.
+        """
+        if self.order is None:
+            graph = self.A.copy()
+            graph.setdiag(0.0)
+            graph.eliminate_zeros()
+            _, rank = pymetis.nested_dissection(pymetis.CSRAdjacency(graph.indptr, graph.indices))
+            self.order = np.asarray(rank, np.intp)
+        return self.order
 
     def _envelope(self, cells):
         """`cells` and ENVELOPE_LAYERS layers of their neighbours (sorted): the index set of a factorisation."""
@@ -366,8 +500,9 @@ class _EnvelopeCholesky:
     through the factor P A_00 P^T = L D L^T: |J| + 1 forward substitutions and one backward.
     """
 
-    def __init__(self, A, envelope, size):
-        """envelope: the cells of E (sorted); size: |S| of the S that E was made around."""
+    def __init__(self, A, envelope, size, order=None):
+        """envelope: the cells of E (sorted); size: |S| of the S that E was made around; order: rank
+        of every cell in a fill-reducing order (None: CHOLMOD's own choice)."""
         self.A, self.cells, self.size = A, envelope, size
         self.position = np.full(A.shape[0], -1, np.intp)  # position of a cell in E (-1: not in E)
         self.position[envelope] = np.arange(len(envelope))
@@ -379,7 +514,11 @@ class _EnvelopeCholesky:
         self.diagonal = self.row == self.col
         self.matrix = cvxopt.spmatrix(1.0, cvxopt.matrix(self.row.astype(int)), cvxopt.matrix(self.col.astype(int)),
                                       (len(envelope), len(envelope)))
-        self.symbolic = cholmod.symbolic(self.matrix, uplo="L")
+        if order is None:
+            self.symbolic = cholmod.symbolic(self.matrix, uplo="L")
+        else:
+            with _cholmod_options(nmethods=1):  # that order only: CHOLMOD would also try AMD
+                self.symbolic = cholmod.symbolic(self.matrix, p=cvxopt.matrix(np.argsort(order[envelope])), uplo="L")
         self.active = None                 # positions of the factorised S in E
         self.mask = np.zeros(len(envelope), bool)  # the factorised S as a mask on E
         self.inverse_d = None              # D^{-1} of the factor (ones for a supernodal L L^T)
@@ -388,6 +527,10 @@ class _EnvelopeCholesky:
         """cells inside the envelope, and not fewer than SHRINK times the S it was made around
         (else a new, tighter one pays off)."""
         return len(cells) >= SHRINK * self.size and bool(np.all(self.position[cells] >= 0))
+
+    def factorised(self):
+        """The cells of the factorised S (sorted)."""
+        return self.cells[self.active]
 
     def needs_factorisation(self, cells):
         """False when S = cells is the factorised S or grows from it by at most BORDER_MAX cells."""
@@ -460,6 +603,18 @@ class _EnvelopeCholesky:
         return b
 
 
+@contextmanager
+def _cholmod_options(**options):
+    """CHOLMOD options (cvxopt's module-wide dict) for the calls in the block, restored after it."""
+    saved = dict(cholmod.options)
+    cholmod.options.update(options)
+    try:
+        yield
+    finally:
+        cholmod.options.clear()
+        cholmod.options.update(saved)
+
+
 class _Hierarchy:
     """A Ruge-Stuben hierarchy of K on `cells` (sorted)."""
 
@@ -469,6 +624,19 @@ class _Hierarchy:
 
     def vcycle(self, r):
         return vcycle(self.ml, r)
+
+
+def _adjacency_table(A):
+    """The neighbours of every cell in the graph of A, one row per cell, padded with the cell itself
+    (a triangle has at most 3): the band search gathers them without building sparse row slices."""
+    n = A.shape[0]
+    row = np.repeat(np.arange(n), np.diff(A.indptr))
+    off = (A.indices != row) & (A.data != 0)
+    count = np.bincount(row[off], minlength=n)
+    table = np.repeat(np.arange(n)[:, None], max(int(count.max(initial=0)), 1), axis=1)
+    slot = np.arange(np.count_nonzero(off)) - np.repeat(np.cumsum(count) - count, count)
+    table[row[off], slot] = A.indices[off]
+    return table
 
 
 def _restriction(rows, col, in_S):
