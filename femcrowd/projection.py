@@ -70,10 +70,10 @@ MAX_SPILLS = 16
 TIGHT_SWITCH = 1e-3
 #: an S that grows by at most this many cells from the factorised one is solved by bordering (a Schur
 #: complement on the new cells: k + 1 forward and one backward substitution with the kept factor) instead
-#: of a new numeric factorisation. `python benchmarks/bordering.py` (2.6 10^4 and 2.6 10^5 unknowns;
-#: cvxopt's CHOLMOD substitutes column by column): 0.16-0.31 of a factorisation and solve for k = 1,
-#: 0.44-0.46 for k = 8, 0.77-0.81 for k = 16, 1.9-2.7 for k = 32
-BORDER_MAX = 16
+#: of a new numeric factorisation. `python benchmarks/bordering.py --radius 7` and `--radius 10` (2.6 10^4
+#: to 4.5 10^5 unknowns, nested-dissection order; cvxopt's CHOLMOD substitutes column by column): 0.21-0.25
+#: of a factorisation and solve for k = 1, 0.57-0.92 for k = 8, 1.0-1.6 for k = 16 (1.5-1.6 at 10^6 triangles)
+BORDER_MAX = 8
 #: the warm-start predictor (_predict): layers of cells of S around the cells that join it (outside the
 #: factorised set) in the band of the local solves, and global corrections (substitutions with the kept
 #: factor) after the first pass. On the 10^6-triangle hall (5.4 10^5 cells in S, ~700 joining per step) the
