@@ -1,7 +1,7 @@
-"""Cost of a bordered solve against a new numeric factorisation (the choice of projection.BORDER_MAX).
+"""Cost of a bordered solve against a new numeric factorisation (the choice of linear.BORDER_MAX).
 
 On the benchmark hall of scale.py, S_0 = the cells within R of the door is factorised
-(_EnvelopeCholesky, in the nested-dissection order of Projection); then S = S_0 plus k cells of its neighbour layer is solved by bordering
+(EnvelopeCholesky, in the nested-dissection order of Projection); then S = S_0 plus k cells of its neighbour layer is solved by bordering
 the kept factor, for k = 1 ... 32, and timed against one numeric factorisation plus a solve.
 
     python benchmarks/bordering.py                    # 1e5 and 1e6 triangles, R = 7 m
@@ -18,7 +18,8 @@ from scale import mesh_file
 
 def one_size(target, radius):
     from femcrowd.mesh import load_domain
-    from femcrowd.projection import Projection, _EnvelopeCholesky
+    from femcrowd.linear import EnvelopeCholesky
+    from femcrowd.projection import Projection
 
     domain = load_domain(mesh_file(target), ["exit"])
     projection = Projection(domain)
@@ -26,7 +27,7 @@ def one_size(target, radius):
     c = domain.centroid
     S0 = np.flatnonzero((c[:, 0] - 20) ** 2 + (c[:, 1] - 7.5) ** 2 < radius ** 2)
     envelope = np.flatnonzero((c[:, 0] - 20) ** 2 + (c[:, 1] - 7.5) ** 2 < (radius + 0.5) ** 2)
-    factor = _EnvelopeCholesky(A, envelope, len(S0), projection.nested_dissection())  # as in Projection
+    factor = EnvelopeCholesky(A, envelope, len(S0), projection.nested_dissection())  # as in Projection
     tic = time.perf_counter()
     factor.prepare(S0)
     numeric = time.perf_counter() - tic

@@ -66,7 +66,8 @@ def one_size(target, steps):
     from femcrowd.macro import MacroSolver
     from femcrowd.mesh import load_domain
     from femcrowd.output import FrameSeries, triangle_frame
-    from femcrowd.projection import Projection, amg_hierarchy, pcg, vcycle
+    from femcrowd.linear import amg_hierarchy, pcg, vcycle
+    from femcrowd.projection import Projection
     from femcrowd.velocity import ExitsVelocity
 
     path = mesh_file(target)

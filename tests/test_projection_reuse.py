@@ -8,7 +8,8 @@ import pytest
 from femcrowd.expressions import Expression
 from femcrowd.mesh import load_domain
 from femcrowd import projection
-from femcrowd.projection import BORDER_MAX, PREDICT_MIN, Projection, _adjacency_table
+from femcrowd.linear import BORDER_MAX, EnvelopeCholesky
+from femcrowd.projection import PREDICT_MIN, Projection, _adjacency_table
 from femcrowd.transport import UpwindTransport
 from femcrowd.velocity import FieldVelocity
 
@@ -94,13 +95,12 @@ def test_envelope_factorisation_solves_every_saturated_set_inside_it():
     each solve equals a sparse LU solve of A_SS (pattern of K kept, values masked)."""
     import scipy.sparse.linalg as spla
 
-    from femcrowd.projection import _EnvelopeCholesky
 
     domain = load_domain(MESHES / "room_one_door.msh", ["exit"])
     A = domain.laplacian().tocsr()
     x = domain.centroid[:, 0]
     envelope = np.flatnonzero(x > 4.0)
-    factor = _EnvelopeCholesky(A, envelope, len(envelope))
+    factor = EnvelopeCholesky(A, envelope, len(envelope))
     rng = np.random.default_rng(3)
     for threshold in (7.0, 5.0, 6.0, 4.5):  # S grows, shrinks and grows again inside E
         S = np.flatnonzero(x > threshold)
@@ -119,13 +119,12 @@ def test_bordered_solve_of_a_few_new_cells_equals_a_fresh_solve(grown):
     the bordered solve (Schur complement on the new cells) needs no factorisation and equals sparse LU."""
     import scipy.sparse.linalg as spla
 
-    from femcrowd.projection import _EnvelopeCholesky
 
     domain = load_domain(MESHES / "room_one_door.msh", ["exit"])
     A = domain.laplacian().tocsr()
     x = domain.centroid[:, 0]
     S0 = np.flatnonzero(x > 6.0)
-    factor = _EnvelopeCholesky(A, np.flatnonzero(x > 4.0), len(S0))
+    factor = EnvelopeCholesky(A, np.flatnonzero(x > 4.0), len(S0))
     assert factor.prepare(S0)
     front = np.setdiff1d(A[S0].indices, S0)                 # the neighbour layer of S_0
     second = np.setdiff1d(A[front].indices, np.union1d(S0, front))
