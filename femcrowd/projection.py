@@ -28,7 +28,7 @@ Cost (docs/performance.md), with the result unchanged:
   solves are tight, and the loop stops only on an S reproduced by a tight solve;
 - the exact iterations work on S and its neighbour layer L only (index arrays,
   persistent scratch vectors, no full-length temporaries); the predictor makes
-  a few O(n) passes (masks, four mat-vecs with A) per step, ~1 % of its cost;
+  a few O(n) passes (masks, four mat-vecs with A) per step, ~15 % of its time;
 - systems up to ``direct_max`` unknowns are factorised (sparse Cholesky, in a
   nested-dissection order of the mesh computed once): the
   symbolic analysis of an envelope of S (S and a few layers of neighbours) is
@@ -45,6 +45,7 @@ Cost (docs/performance.md), with the result unchanged:
 """
 
 import time
+
 import cvxopt
 import cvxopt.cholmod as cholmod
 import numpy as np
