@@ -3,6 +3,7 @@
 - EnvelopeCholesky: sparse Cholesky (CHOLMOD, through cvxopt) of A_SS for every S inside a
   fixed envelope of cells, one symbolic analysis per envelope, one numeric factorisation per
   S, and none for an S that grows by a few cells (bordering);
+- cholesky_solve: one CHOLMOD solve of a small system (the predictor's band solves);
 - amg_hierarchy, vcycle, pcg: conjugate gradients preconditioned by a Ruge-Stuben AMG V-cycle
   (pyamg), for systems too large to factorise.
 """
@@ -62,7 +63,7 @@ class EnvelopeCholesky:
         if order is None:
             self.symbolic = cholmod.symbolic(self.matrix, uplo="L")
         else:
-            with cholmod_options(nmethods=1):  # that order only: CHOLMOD would also try AMD
+            with _cholmod_options(nmethods=1):  # that order only: CHOLMOD would also try AMD
                 self.symbolic = cholmod.symbolic(self.matrix, p=cvxopt.matrix(np.argsort(order[envelope])), uplo="L")
         self.active = None                 # positions of the factorised S in E
         self.mask = np.zeros(len(envelope), bool)  # the factorised S as a mask on E
@@ -149,7 +150,7 @@ class EnvelopeCholesky:
 
 
 @contextmanager
-def cholmod_options(**options):
+def _cholmod_options(**options):
     """CHOLMOD options (cvxopt's module-wide dict) for the calls in the block, restored after it."""
     saved = dict(cholmod.options)
     cholmod.options.update(options)
@@ -158,6 +159,18 @@ def cholmod_options(**options):
     finally:
         cholmod.options.clear()
         cholmod.options.update(saved)
+
+
+def cholesky_solve(K, rhs, order):
+    """K x = rhs for a small SPD sparse matrix K: CHOLMOD on its lower triangle, in the fill-reducing
+    order given by the ranks `order` of its rows (one symbolic analysis, one factorisation)."""
+    lower = sp.tril(K, format="coo")
+    matrix = cvxopt.spmatrix(lower.data, cvxopt.matrix(lower.row.astype(int)), cvxopt.matrix(lower.col.astype(int)),
+                             K.shape)
+    x = cvxopt.matrix(np.asarray(rhs, float))
+    with _cholmod_options(nmethods=1):  # that order only
+        cholmod.linsolve(matrix, x, p=cvxopt.matrix(np.argsort(order)), uplo="L")
+    return np.array(x).ravel()
 
 
 class Hierarchy:

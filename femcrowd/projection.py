@@ -46,14 +46,12 @@ Cost (docs/performance.md), with the result unchanged:
 
 import time
 
-import cvxopt
-import cvxopt.cholmod as cholmod
 import numpy as np
 import pymetis
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-from .linear import EnvelopeCholesky, Hierarchy, cholmod_options, pcg
+from .linear import EnvelopeCholesky, Hierarchy, cholesky_solve, pcg
 
 #: layers of neighbours around S in the envelope of a factorisation (the front moves a few cells per step)
 ENVELOPE_LAYERS = 8
@@ -145,7 +143,7 @@ class Projection:
         strict = over[b[over] < -self.tol * self.area[over]]
         info["detect"] = clock.lap()
         spills, tight = 0, False  # inexact Newton: loose solves until S (nearly) settles, then tight ones
-        if self.reuse and len(self.active) >= max(PREDICT_MIN, 1) and self.factor is not None:  # warm start
+        if self.reuse and self.active.size and len(self.active) >= PREDICT_MIN and self.factor is not None:
             S, x0 = self._predict(b, strict, info)
             info["predict"] = clock.lap()
             spills, tight = 1, True
@@ -252,7 +250,8 @@ class Projection:
                 phi[flips] = 0.0  # the cells that leave; those that join start from 0
                 touched = self._distinct(np.concatenate([touched, flips]))
                 band = self._band(touched[inside[touched] != in_G[touched]], inside)
-                phi[band] += self._band_solve(band, -(b[band] + A[band] @ phi))
+                phi[band] += cholesky_solve(A[band][:, band], -(b[band] + A[band] @ phi),
+                                            self.nested_dissection()[band])
                 info["band_solves"] += 1
                 region = self._distinct(A[band].indices)  # where w and the signs of phi can have changed
                 w = b[region] + A[region] @ phi
@@ -281,22 +280,6 @@ class Projection:
         order = np.arange(len(cells))
         self._position[cells] = order
         return cells[self._position[cells] == order]
-
-    def _band_solve(self, band, rhs):
-        """A_BB x = rhs on the cells B = band: sparse Cholesky (CHOLMOD) of its lower triangle."""
-        rows = self.A[band]
-        self._mark[band] = True
-        self._position[band] = np.arange(len(band))
-        row = np.repeat(np.arange(len(band)), np.diff(rows.indptr))
-        col = self._position[rows.indices]
-        lower = self._mark[rows.indices] & (col <= row)
-        self._mark[band] = False
-        K = cvxopt.spmatrix(rows.data[lower], cvxopt.matrix(row[lower]), cvxopt.matrix(col[lower]),
-                            (len(band), len(band)))
-        x = cvxopt.matrix(rhs)
-        with cholmod_options(nmethods=1):  # the nested-dissection order of the mesh, as for the factor
-            cholmod.linsolve(K, x, p=cvxopt.matrix(np.argsort(self.nested_dissection()[band])), uplo="L")
-        return np.array(x).ravel()
 
     def _update(self, S, phi_S, b, strict):
         """One active-set update from a given phi on S (no solve); returns the new S and phi on it."""

@@ -159,7 +159,7 @@ def test_colour_bar_ranges_are_round(value, top, labels):
 
 def test_mp4_without_imageio_ffmpeg_is_one_line_and_writes_nothing(short_run, tmp_path):
     if importlib.util.find_spec("imageio_ffmpeg") is not None:
-        pytest.skip("imageio-ffmpeg is installed")
+        pytest.skip("imageio-ffmpeg is installed: this checks the error a user sees without it")
     result = CliRunner().invoke(main, ["plot", str(short_run), "-o", str(tmp_path / "p"), "--mp4"])
     assert result.exit_code == 2 and "imageio-ffmpeg" in result.stderr and result.stderr.count("\n") == 1
     assert not (tmp_path / "p").exists()
