@@ -1,8 +1,10 @@
-"""Cost of a bordered solve against a new numeric factorisation (the choice of linear.BORDER_MAX).
+"""Cost of a bordered solve against a new numeric factorisation (the choice of linear.BORDER_MAX),
+and of the factorisation in CHOLMOD's own order against the nested-dissection order of Projection.
 
 On the benchmark hall of scale.py, S_0 = the cells within R of the door is factorised
-(EnvelopeCholesky, in the nested-dissection order of Projection); then S = S_0 plus k cells of its neighbour layer is solved by bordering
-the kept factor, for k = 1 ... 32, and timed against one numeric factorisation plus a solve.
+(EnvelopeCholesky) in both orders; then, in the nested-dissection order, S = S_0 plus k cells
+of its neighbour layer is solved by bordering the kept factor, for k = 1 ... 32, and timed
+against one numeric factorisation plus a solve.
 
     python benchmarks/bordering.py                    # 1e5 and 1e6 triangles, R = 7 m
     python benchmarks/bordering.py --sizes 1e5 --radius 5
@@ -27,10 +29,18 @@ def one_size(target, radius):
     c = domain.centroid
     S0 = np.flatnonzero((c[:, 0] - 20) ** 2 + (c[:, 1] - 7.5) ** 2 < radius ** 2)
     envelope = np.flatnonzero((c[:, 0] - 20) ** 2 + (c[:, 1] - 7.5) ** 2 < (radius + 0.5) ** 2)
-    factor = EnvelopeCholesky(A, envelope, len(S0), projection.nested_dissection())  # as in Projection
     tic = time.perf_counter()
-    factor.prepare(S0)
-    numeric = time.perf_counter() - tic
+    order = projection.nested_dissection()
+    metis = time.perf_counter() - tic
+    for label, rank in (("CHOLMOD's own order (AMD)", None), ("nested dissection of the mesh (METIS)", order)):
+        tic = time.perf_counter()
+        factor = EnvelopeCholesky(A, envelope, len(S0), rank)
+        symbolic = time.perf_counter() - tic
+        tic = time.perf_counter()
+        factor.prepare(S0)
+        numeric = time.perf_counter() - tic
+        print(f"{label}: symbolic analysis {1e3 * symbolic:.1f} ms, numeric factorisation {1e3 * numeric:.1f} ms")
+    print(f"METIS order of the {domain.ncells} cells (once): {metis:.2f} s; bordering below in that order")
     tic = time.perf_counter()
     factor.solve(S0, domain.area[S0])
     solve = time.perf_counter() - tic
