@@ -1,17 +1,17 @@
-"""Microscopic crowd model: rigid discs, catching-up scheme (seed 000 sec. 2).
+"""Microscopic crowd model: rigid discs, catching-up scheme (Maury, Venel 2011; Maury 2014, sec. 2).
 
 Pure-array interface:
 
 - :class:`MicroSimulation` (state + :meth:`~MicroSimulation.step` +
   :meth:`~MicroSimulation.run` generator of :class:`StepInfo`),
-- :func:`project` (the QP of seed 000 eq. 16, exact or Uzawa eq. 17),
+- :func:`project` (the QP of Maury 2014, eq. 16, exact or Uzawa eq. 17),
 - :func:`sample_discs`, :func:`read_discs_csv` (initial crowds).
 """
 
 from .contacts import CandidateList, Constraints, WallSet
 from .projection import ProjectionResult, kkt_residual, project
 from .sampling import read_discs_csv, sample_discs, target_count
-from .scheme import MicroSimulation, StepInfo, exit_crossings, run
+from .scheme import MicroSimulation, StepInfo, exit_crossings
 
 __all__ = [
     "CandidateList",
@@ -23,7 +23,6 @@ __all__ = [
     "MicroSimulation",
     "StepInfo",
     "exit_crossings",
-    "run",
     "read_discs_csv",
     "sample_discs",
     "target_count",

@@ -45,8 +45,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..linalg.cholmod import Cholesky
 from .contacts import Constraints
-from .linalg import PatternFactor, default_backend
 
 __all__ = ["ProjectionResult", "project", "kkt_residual"]
 
@@ -93,7 +93,6 @@ def project(
     max_iter: int | None = None,
     rho: float = 1e4,
     nu: float | None = None,
-    backend: str | None = None,
     max_fact: int = 10,
 ) -> ProjectionResult:
     """Project U (N, 2) on {v : B v <= d} (seed 000 eq. 15-16).
@@ -108,8 +107,7 @@ def project(
     lam = np.zeros(C.m) if lam0 is None else np.maximum(np.asarray(lam0, float).reshape(C.m), 0.0)
     atol = tol * max(1.0, float(np.abs(U).max()) if C.N else 1.0)
     if method == "exact":
-        solve = lambda Cw, dw, lw: _exact(Cw, U, dw, lw, atol, max_iter, rho,  # noqa: E731
-                                          backend or default_backend(), max_fact)
+        solve = lambda Cw, dw, lw: _exact(Cw, U, dw, lw, atol, max_iter, rho, max_fact)  # noqa: E731
     elif method == "uzawa":
         solve = lambda Cw, dw, lw: _uzawa(Cw, U, dw, lw, atol, max_iter or 100_000, nu)  # noqa: E731
     else:
@@ -155,7 +153,7 @@ class _NewtonMatrix:
     cost one numeric factorisation only.
     """
 
-    def __init__(self, C: Constraints, S, backend):
+    def __init__(self, C: Constraints, S):
         rs = np.flatnonzero(S)
         p = rs[rs < C.mp]
         wr = rs[rs >= C.mp] - C.mp
@@ -181,13 +179,16 @@ class _NewtonMatrix:
              np.ones(2 * n)])
         self.src = np.concatenate([src_d, src_d, src_d, p, p, p, p, np.full(2 * n, -1)])
         self.discs = discs
-        self.fact = PatternFactor(rows, cols, 2 * n, backend) if n else None
+        # entries in compressed-column order, duplicates summed (rows of several contacts meet)
+        entry, self.entry_of = np.unique(cols.astype(np.int64) * (2 * n) + rows, return_inverse=True)
+        self.entries = len(entry)
+        self.fact = Cholesky(entry % (2 * n), entry // (2 * n), 2 * n, supernodal=2, print=0) if n else None
 
     def factor(self, w):
         """Numeric factorisation of I + B^T diag(w) B (w: one weight per row)."""
         if self.fact is not None:
             wts = np.where(self.src >= 0, np.asarray(w, float)[np.maximum(self.src, 0)], 1.0)
-            self.fact.numeric(self.base * wts)
+            self.fact.factorise(np.bincount(self.entry_of, self.base * wts, self.entries))
 
 
 def _psolve(fact, discs, x):
@@ -195,7 +196,7 @@ def _psolve(fact, discs, x):
     if fact is None or len(discs) == 0:
         return x.copy()
     y = x.copy()
-    y[discs] = fact.solve(x[discs].ravel()).reshape(-1, 2)
+    y[discs] = np.array(fact.solve(x[discs].ravel())).reshape(-1, 2)
     return y
 
 
@@ -340,12 +341,12 @@ def _ssn_alm(C: Constraints, U, d, lam, atol, max_iter, rho, newton, max_fact=No
     return ProjectionResult(v, lam, it, nfact, float(kkt), converged, "exact")
 
 
-def _exact(C: Constraints, U, d, lam, atol, max_iter, rho, backend, max_fact):
+def _exact(C: Constraints, U, d, lam, atol, max_iter, rho, max_fact):
     """Warm-started semismooth Newton; interior point + Newton polish as fallback.
 
     One Newton-matrix pattern (all rows of C) serves the three stages.
     """
-    newton = _NewtonMatrix(C, np.ones(C.m, bool), backend)
+    newton = _NewtonMatrix(C, np.ones(C.m, bool))
     res = _ssn_alm(C, U, d, lam, atol, max_iter or 200, rho, newton, max_fact=max_fact)
     if res.converged or C.m == 0:
         return res

@@ -30,7 +30,7 @@ import numpy as np
 from .contacts import CandidateList, Constraints, WallSet, as_segments, merge_collinear
 from .projection import project
 
-__all__ = ["StepInfo", "MicroSimulation", "exit_crossings", "run"]
+__all__ = ["StepInfo", "MicroSimulation", "exit_crossings"]
 
 
 @dataclass
@@ -135,7 +135,6 @@ class MicroSimulation:
         skin: float | None = None,
         tol: float = 1e-12,
         max_iter: int | None = None,
-        backend: str | None = None,
         ids=None,
     ):
         q = np.array(q, dtype=float).reshape(-1, 2)
@@ -156,7 +155,6 @@ class MicroSimulation:
         self.method = method
         self.tol = tol
         self.max_iter = max_iter
-        self.backend = backend
         self._skin = skin
         self.cl: CandidateList | None = None
         self.lam = np.zeros(0)
@@ -228,7 +226,7 @@ class MicroSimulation:
                 C = self.constraints()
                 d = np.maximum(C.D, -self._recover) / tau
                 res = project(C, U, d, method=self.method, lam0=self.lam, tol=self.tol,
-                              max_iter=self.max_iter, backend=self.backend)
+                              max_iter=self.max_iter)
                 moved = tau * np.sqrt((res.u * res.u).sum(1))
                 if self.cl.travel_ok(self.q, moved):
                     break
@@ -307,7 +305,3 @@ class MicroSimulation:
             yield self.step()
             n += 1
 
-
-def run(q, r, walls, exits, U, tau, t_end=None, max_steps=None, **kw) -> Iterator[StepInfo]:
-    """Convenience generator: ``MicroSimulation(...).run(t_end, max_steps)``."""
-    return MicroSimulation(q, r, walls, exits, U, tau, **kw).run(t_end=t_end, max_steps=max_steps)

@@ -1,0 +1,113 @@
+"""Loading a case directory: ``case.toml`` resolved against the schema, ``--set`` overrides, paths.
+
+Unknown keys, wrong types and bad values raise :class:`InputError` naming the
+file, the key and the value. Expressions are parsed (never evaluated as
+Python) when the case is loaded. The resolved configuration (all defaults
+filled) is echoed into summary.json.
+
+Paths are resolved here, in one place: paths in a case file (``mesh.file``,
+``output.dir``, ...) are relative to the case file; an output directory given
+on the command line (``--out``) is relative to the current directory.
+"""
+
+import copy
+import difflib
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..errors import InputError
+from .expressions import Expression
+from .schema import REQUIRED, SCHEMA, check_value
+
+
+@dataclass
+class Case:
+    """A loaded case: the resolved configuration and where it came from."""
+
+    config: dict
+    file: Path
+
+    @property
+    def directory(self):
+        return self.file.parent
+
+    def __getitem__(self, section):
+        return self.config[section]
+
+    def path(self, relative) -> Path:
+        """A path from the case file, resolved against the case directory."""
+        return (self.directory / relative).resolve()
+
+    def output_dir(self, out=None, subdirectory: str = "") -> Path:
+        """Where a run writes: ``out`` from the command line (relative to the current directory), else
+        ``output.dir`` of the case (relative to the case file) with `subdirectory` appended."""
+        if out is not None:
+            return Path(out).resolve()
+        return self.path(self.config["output"]["dir"]) / subdirectory
+
+    def expression(self, section, key):
+        """The parsed Expression of a number-or-expression key."""
+        return Expression(self.config[section][key])
+
+
+def load_case(case_dir, overrides=()) -> Case:
+    """Load CASE_DIR/case.toml (or a .toml file), apply ``--set key=value`` overrides, validate."""
+    path = Path(case_dir)
+    file = path / "case.toml" if path.is_dir() else path
+    if not file.is_file():
+        raise InputError(file, None, None, "case file not found")
+    try:
+        raw = tomllib.loads(file.read_text())
+    except tomllib.TOMLDecodeError as err:
+        raise InputError(file, None, None, f"TOML syntax error: {err}") from None
+    except UnicodeDecodeError:
+        raise InputError(file, None, None, "not a text file") from None
+    for item in overrides:
+        _apply_override(raw, item, file)
+    return Case(_resolve(raw, SCHEMA, file, ""), file.resolve())
+
+
+def parse_override(item, file="--set"):
+    """'a.b=value' -> (['a', 'b'], value); the value is read as TOML, else as a string."""
+    if "=" not in item:
+        raise InputError(file, item, None, "expected --set section.key=value")
+    key, text = item.split("=", 1)
+    try:
+        value = tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = text
+    return key.strip().split("."), value
+
+
+def _apply_override(raw, item, file):
+    keys, value = parse_override(item, file)
+    table = raw
+    for k in keys[:-1]:
+        table = table.setdefault(k, {})
+        if not isinstance(table, dict):
+            raise InputError(file, ".".join(keys), value, f"{k!r} is not a table")
+    table[keys[-1]] = value
+
+
+def _resolve(raw, schema, file, prefix):
+    """Fill defaults and check every key of one table against the schema."""
+    if not isinstance(raw, dict):
+        raise InputError(file, prefix.rstrip("."), raw, "expected a table")
+    for name in raw:
+        if name not in schema:
+            close = difflib.get_close_matches(name, list(schema), n=1)
+            hint = f" (did you mean {prefix + close[0]!r}?)" if close else ""
+            raise InputError(file, prefix + name, raw[name], f"unknown key{hint}")
+    out = {}
+    for name, spec in schema.items():
+        key = prefix + name
+        if isinstance(spec, dict):
+            out[name] = _resolve(raw.get(name, {}), spec, file, key + ".")
+        elif name in raw:
+            out[name] = check_value(spec, raw[name], file, key)
+        elif spec.default is REQUIRED:
+            raise InputError(file, key, None, "missing required key")
+        else:
+            out[name] = copy.deepcopy(spec.default)
+    return out

@@ -1,0 +1,88 @@
+"""``femcrowd new``: a commented case.toml for a mesh, every key at its default (from the SCHEMA),
+exits = the mesh's boundary groups not named wall*."""
+
+import json
+import math
+import os
+from pathlib import Path
+
+from ..errors import InputError
+from ..mesh import load_domain
+from .schema import SCHEMA
+
+
+def toml_value(value):
+    """A value as TOML text (strings and lists via JSON, which is valid TOML for them)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k} = {toml_value(v)}" for k, v in value.items()) + "}"
+    return json.dumps(value)
+
+
+def _default(section, key):
+    return toml_value(SCHEMA[section][key].default)
+
+
+def wall_like(name):
+    return name.lower().startswith("wall")
+
+
+def new_case(case_dir, mesh_file):
+    """Write CASE_DIR/case.toml for the mesh ``mesh_file``; never overwrites. Returns the file."""
+    case_dir, mesh_file = Path(case_dir), Path(mesh_file)
+    file = case_dir / "case.toml"
+    if file.exists():
+        raise InputError(file, None, None, "already exists: femcrowd new never overwrites a case "
+                         "(choose another directory, or edit this file)")
+    domain = load_domain(mesh_file, (), 0, case_file=file)
+    groups = domain.statistics()["boundary_groups"]
+    exits = [name for name in groups if not wall_like(name)]
+    surfaces = [name for name in (domain.mesh.subdomains or {}) if not name.startswith("gmsh:")]
+    (x0, y0), (x1, y1) = domain.points.min(axis=0), domain.points.max(axis=0)
+    # about four walks across the floor at 1 m/s; the run stops earlier once everybody has left
+    end = 10.0 * math.ceil(0.4 * math.hypot(x1 - x0, y1 - y0))
+    relative = Path(os.path.relpath(mesh_file.resolve(), case_dir.resolve())).as_posix()
+    group_list = ", ".join(f"{n} ({groups[n]:.3g} m)" for n in groups) or "none"
+    if exits:
+        velocity = [('type = "exits"', "U = -speed grad d / |grad d|, d = walking distance to the nearest exit"),
+                    (f'speed = {_default("velocity", "speed")}', "m/s: number or expression in x, y"),
+                    ('# type = "field"', "or U given by expressions in x, y, t:"), '# ux = "-1"', '# uy = "0"']
+    else:
+        velocity = [('type = "field"', "the mesh has no exit: U given by expressions in x, y, t"),
+                    'ux = "1"', 'uy = "0"']
+    lines = [
+        f"# femcrowd case written by `femcrowd new` for {mesh_file.name}.",
+        "# Keys left out take their default (see the case-format documentation). Run it with",
+        f"#   femcrowd run {case_dir}",
+        f"title = {toml_value(case_dir.resolve().name)}",
+        "", "[mesh]",
+        (f"file = {toml_value(relative)}", "gmsh .msh (2.2 or 4.1), relative to this file"),
+        (f'refine = {_default("mesh", "refine")}', "uniform refinements after loading (convergence studies)"),
+        "", "[boundary]",
+        f"# boundary groups of the mesh: {group_list}",
+        (f"exits = {toml_value(exits)}", "groups that are exits; every other boundary edge is a wall"),
+        "", "[model]",
+        (f'type = {_default("model", "type")}', '"macro" (density) | "micro" (discs)'),
+        (f'rho_max = {_default("model", "rho_max")}', "saturation density in your unit, e.g. 5.0 (people/m^2)"),
+        "", ("[velocity]", "desired velocity U"), *velocity,
+        "", "[initial]",
+        ("density = 0.5", 'unit of rho_max: number or expression in x, y, e.g. "0.8 * (x < 4)"'),
+        ("# [initial.regions]", f"or per surface group ({', '.join(surfaces) or 'none'}): crowd = 0.9"),
+        "", "[time]",
+        (f"end = {end:g}.0", f"s (the floor is {x1 - x0:.3g} m x {y1 - y0:.3g} m)"),
+        (f'cfl = {_default("time", "cfl")}', "time step from the CFL number of the desired velocity"),
+        ("# dt = 0.01", "or a fixed time step (s)"),
+        (f'stop_when_empty = {_default("time", "stop_when_empty")}', "stop once everybody has left"),
+        "", "[output]",
+        (f'dir = {_default("output", "dir")}', "relative to this file"),
+        (f'every = {_default("output", "every")}', "s between frames"),
+        f'fields = {_default("output", "fields")}',
+        "", ("# [micro]", 'model.type = "micro" only'),
+        (f'# radius = {_default("micro", "radius")}', "m, or [min, max] for a polydisperse crowd"),
+        f'# seed = {_default("micro", "seed")}',
+    ]
+    text = "".join((f"{line[0]:<30}  # {line[1]}" if isinstance(line, tuple) else line) + "\n" for line in lines)
+    case_dir.mkdir(parents=True, exist_ok=True)
+    file.write_text(text)
+    return file

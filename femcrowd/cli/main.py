@@ -1,0 +1,74 @@
+"""The ``femcrowd`` command group: one-line errors, exit codes, the options shared by the commands.
+
+The commands parse their arguments and print; the work is done in the package.
+"""
+
+import logging
+import sys
+
+import click
+
+from .. import __version__
+from ..errors import InputError
+
+
+class FemcrowdGroup(click.Group):
+    """A click group that turns InputError into a one-line message and exit code 2."""
+
+    def invoke(self, ctx):
+        try:
+            return super().invoke(ctx)
+        except InputError as err:
+            click.echo(f"femcrowd: error: {err}", err=True)
+            sys.exit(2)
+        except KeyboardInterrupt:
+            click.echo("femcrowd: interrupted; frames, history.csv and summary.json written so far "
+                       "are kept", err=True)
+            sys.exit(130)
+
+
+# options shared by several commands
+set_option = click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
+                          help="Override a case key, e.g. --set time.end=5 (repeatable).")
+force_option = click.option("--force", is_flag=True,
+                            help="Write into a non-empty directory femcrowd did not create.")
+quiet_option = click.option("-q", "--quiet", is_flag=True, help="No progress bars.")
+out_option = click.option("--out", type=click.Path(),
+                          help="Output directory, relative to the current directory (default: [output].dir "
+                               "of the case, relative to the case file).")
+
+
+def case_run_options(command):
+    """CASE_DIR, --set, --out, --force, -q: the arguments of the commands that run a case."""
+    for option in reversed([click.argument("case_dir", type=click.Path()), set_option,
+                            out_option, force_option, quiet_option]):
+        command = option(command)
+    return command
+
+
+@click.group(cls=FemcrowdGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="femcrowd")
+@click.option("-v", "--verbose", is_flag=True, help="Log solver details.")
+def main(verbose):
+    """femcrowd: crowd motion with hard congestion on unstructured meshes.
+
+    \b
+    Examples:
+      femcrowd run cases/room
+      femcrowd run cases/room --set time.end=5 --set mesh.refine=1 --out results/room
+      femcrowd plot cases/room/output
+      femcrowd info cases/room
+      femcrowd mesh plan.toml -o plan.msh && femcrowd new my-case --mesh plan.msh
+      femcrowd -v run cases/room            (solver details on stderr)
+
+    \b
+    Exit codes:
+      0    done
+      1    a run failed (the message says why; frames and history so far are kept)
+      2    bad input or usage: one line naming the file, the key and the value
+      130  interrupted (Ctrl-C); frames, history.csv and summary.json so far are kept
+
+    Run `femcrowd COMMAND --help` for a command's options and examples.
+    """
+    logging.basicConfig(level=logging.INFO if verbose else logging.WARNING,
+                        format="%(name)s: %(message)s")

@@ -1,0 +1,126 @@
+"""``femcrowd convergence``, ``sweep`` and ``stress``: studies made of many runs."""
+
+import sys
+import time
+
+import click
+
+from ..errors import InputError
+from .main import force_option, main, set_option
+
+
+def _floats(option):
+    """Click callback: '0.5,0.25' -> (0.5, 0.25)."""
+    def parse(ctx, param, value):
+        if value is None:
+            return ()
+        try:
+            return tuple(float(v) for v in value.split(",") if v.strip())
+        except ValueError:
+            raise InputError(option, None, value, "expected comma-separated numbers") from None
+    return parse
+
+
+@main.command()
+@click.argument("case_dir", type=click.Path())
+@click.option("--levels", type=click.IntRange(2, 9), default=3, show_default=True,
+              help="Refinement levels: mesh.refine = base + 0..N-1 (or the first N of [convergence] meshes).")
+@click.option("--cfl", callback=_floats("--cfl"), metavar="C1,C2,...",
+              help="CFL numbers: one series per value (time-step study).")
+@click.option("--set-values", "set_values", multiple=True, metavar="KEY=V1,V2,...",
+              help="One series per value, e.g. scheme.transport=upwind,muscl (repeatable: all combinations).")
+@click.option("--times", callback=_floats("--times"), metavar="T1,T2,...",
+              help="Measure also at these times (the final time always).")
+@set_option
+@click.option("--out", type=click.Path(), help="Report directory (default: [output].dir/convergence).")
+@click.option("--serial", is_flag=True, help="Run the levels one after the other in this process.")
+@click.option("--scheduler", metavar="ADDRESS", help="Use this dask scheduler (default: a LocalCluster).")
+@force_option
+def convergence(case_dir, levels, cfl, set_values, times, overrides, out, serial, scheduler, force):
+    """Mesh-convergence study of a case: errors against h and against run time.
+
+    Errors are measured against the case's [exact] solution, otherwise against
+    the finest level (self-convergence). Writes convergence.csv, convergence.md
+    (tables with observed orders), error_vs_h.png and error_vs_time.png.
+
+    \b
+    Examples:
+      femcrowd convergence cases/corridor-wall --levels 4
+      femcrowd convergence cases/radial --levels 4 --set-values scheme.transport=upwind,muscl,compressive
+      femcrowd convergence cases/room --levels 3 --set time.end=5 --serial
+    """
+    from ..studies.convergence import study
+
+    rows, text, out_dir = study(case_dir, levels, out, overrides, cfl, set_values, times, serial,
+                                scheduler, force, echo=click.echo)
+    click.echo(text)
+    click.echo(f"report: {out_dir}/convergence.md, convergence.csv, error_vs_h.png, error_vs_time.png")
+
+
+@main.command()
+@click.argument("case_dir", type=click.Path())
+@click.option("--set-values", "set_values", multiple=True, required=True, metavar="KEY=V1,V2,...",
+              help="Values of a case key, e.g. initial.density=0.4,0.6 (repeatable: all combinations).")
+@set_option
+@click.option("--out", type=click.Path(), help="Sweep directory (default: [output].dir/sweep).")
+@click.option("--serial", is_flag=True, help="Run one after the other in this process.")
+@click.option("--scheduler", metavar="ADDRESS", help="Use this dask scheduler (default: a LocalCluster).")
+@force_option
+def sweep(case_dir, set_values, overrides, out, serial, scheduler, force):
+    """Run a case for every combination of parameter values (in parallel through dask).
+
+    Each run writes its own output directory (frames, history.csv, summary.json);
+    sweep.csv, sweep.md and sweep.json tabulate their summaries.
+
+    \b
+    Example:
+      femcrowd sweep cases/room --set-values velocity.speed=1,1.5 --set time.end=20
+    """
+    from ..studies.sweep import sweep as run_sweep
+
+    rows, text, root = run_sweep(case_dir, set_values, out, overrides, serial, scheduler, force, echo=click.echo)
+    click.echo(text)
+    click.echo(f"runs and sweep.csv in {root}")
+
+
+@main.command()
+@click.option("--out", type=click.Path(), default="stress-output", show_default=True,
+              help="Directory for the runs (one per scene) and the table stress.csv / stress.md, "
+                   "relative to the current directory.")
+@click.option("--only", multiple=True, metavar="SCENE", help="Run only this scene (repeatable).")
+@click.option("--cases", type=click.Path(), help="Directory of scene case directories (default: cases/stress).")
+@force_option
+@click.option("--checks", is_flag=True, help="Print every check of every scene under its row.")
+def stress(out, only, cases, force, checks):
+    """Run the stiff and extreme scenes of cases/stress and check every invariant.
+
+    Each scene is a normal case run through the controller (femcrowd run); its
+    summary.json, history.csv and frames are checked against the invariants of
+    the design note and the scene's exact solution. One row per scene; exit
+    code 1 if any scene fails.
+
+    \b
+    Example:
+      femcrowd stress
+      femcrowd stress --only closed-saturated --only wall-a0999 --out stress-check
+    """
+    from ..studies import stress as st
+
+    tic = time.perf_counter()
+
+    def echo(result):
+        click.echo(st.format_row(result))
+        for c in result.checks if checks else ():
+            click.echo(f"    {'ok  ' if c.ok else 'FAIL'} {c.what}" + (f": {c.detail}" if c.detail else ""))
+
+    st.scenes(cases or st.CASES, only)  # a bad --only is one line, before the table starts
+    click.echo(st.header())
+    results, root = st.run_matrix(out, only, cases, force, echo)
+    for r in results:
+        for c in r.failures():
+            click.echo(f"FAIL {r.name}: {c.what}: {c.detail}")
+    passed = sum(r.passed for r in results)
+    click.echo(f"{passed}/{len(results)} scenes pass in {time.perf_counter() - tic:.0f} s; "
+               f"table: {root / 'stress.md'}, {root / 'stress.csv'}; runs: {root}/<scene>")
+    if passed < len(results):
+        sys.exit(1)

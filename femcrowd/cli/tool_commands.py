@@ -1,0 +1,166 @@
+"""``femcrowd plot``, ``mesh``, ``new`` and ``info``: looking at results, making scenes."""
+
+import shlex
+from pathlib import Path
+
+import click
+
+from ..case import load_case
+from ..case.template import toml_value
+from .main import main, set_option
+
+
+def _times(values):
+    """--times 0,10 --times 20 -> [0.0, 10.0, 20.0]."""
+    out = []
+    for value in values:
+        for item in filter(None, (v.strip() for v in value.split(","))):
+            try:
+                out.append(float(item))
+            except ValueError:
+                raise click.BadParameter(f"{item!r} is not a number", param_hint="--times") from None
+    return out
+
+
+@main.command()
+@click.argument("outdir", type=click.Path())
+@click.option("-t", "--times", "times", multiple=True, metavar="T[,T...]",
+              help="Times (s) of the pictures, comma-separated or repeated; the nearest frames are used. "
+                   "Default: 4 evenly spaced times until 95% of the crowd has left.")
+@click.option("--no-animation", is_flag=True, help="Skip the animation (the slowest part).")
+@click.option("--mp4", is_flag=True, help="Animation as MP4 instead of GIF (needs imageio-ffmpeg).")
+@click.option("-o", "--out", type=click.Path(), help="Directory for the pictures (default: OUTDIR).")
+@click.option("-q", "--quiet", is_flag=True, help="No progress bar, no list of files.")
+def plot(outdir, times, no_animation, mp4, out, quiet):
+    """Pictures, animation and curves of a run's output directory OUTDIR.
+
+    Writes density_t*.png and pressure_t*.png (micro runs: discs_t*.png) at
+    the chosen times, density.gif (micro: discs.gif) and curves.png (people
+    inside and evacuated, flow rate per exit, max pressure, saturated area).
+    Rendering is offscreen: no display needed.
+
+    \b
+    Examples:
+      femcrowd plot cases/room/output
+      femcrowd plot /tmp/room --times 0,5,10 --no-animation
+      femcrowd plot /tmp/room -o /tmp/room-pictures
+    """
+    from ..plot import plot_run
+
+    written = plot_run(outdir, _times(times) or None, not no_animation, out, mp4, quiet)
+    if not quiet:
+        for path in written:
+            click.echo(f"wrote {path}")
+    click.echo(f"{len(written)} files in {Path(written[0]).parent if written else outdir}")
+
+
+@main.command()
+@click.argument("geometry", type=click.Path())
+@click.option("-o", "--out", type=click.Path(), help="The .msh file (default: GEOMETRY with .msh).")
+@click.option("--exit-size", type=click.FloatRange(min=0, min_open=True), metavar="H",
+              help="Cell size near every exit (m), overriding the exits' own 'size' keys.")
+def mesh(geometry, out, exit_size):
+    """Mesh the floor plan GEOMETRY (a .toml file) with gmsh.
+
+    The floor plan gives the outer polygon, holes (polygons or circles),
+    named exit segments and the cell size (format: femcrowd/geometry.py and
+    the shipped meshes/*.toml). The .msh has one boundary group per exit
+    name and "wall" for the rest, ready for a case (femcrowd new).
+
+    \b
+    Examples:
+      femcrowd mesh meshes/room_one_door.toml
+      femcrowd mesh plan.toml -o /tmp/plan.msh --exit-size 0.05
+    """
+    from ..mesh import load_domain
+    from ..mesh.floorplan import build_mesh
+
+    path = build_mesh(geometry, out, exit_size)
+    stats = load_domain(path).statistics()
+    groups = ", ".join(f"{name} {length:.3g} m" for name, length in stats["boundary_groups"].items())
+    click.echo(f"wrote {path}: {stats['triangles']} triangles, h in [{stats['h_min']:.3g}, {stats['h_max']:.3g}] m, "
+               f"min angle {stats['min_angle_deg']:.1f} deg; boundary groups: {groups}")
+    click.echo(f"next: femcrowd new CASE_DIR --mesh {shlex.quote(str(path))}")
+
+
+@main.command()
+@click.argument("case_dir", type=click.Path())
+@click.option("--mesh", "mesh_file", required=True, type=click.Path(), help="The gmsh .msh file of the scene.")
+def new(case_dir, mesh_file):
+    """Write a commented CASE_DIR/case.toml for the mesh FILE.msh.
+
+    Exits are the mesh's boundary groups not named wall*; every other key is
+    the default, with a comment. An existing case.toml is never overwritten.
+
+    \b
+    Example:
+      femcrowd new cases/my-hall --mesh meshes/two_exits.msh
+      femcrowd run cases/my-hall
+    """
+    from ..case.template import new_case
+
+    file = new_case(case_dir, mesh_file)
+    click.echo(f"wrote {file}; edit [initial] density, then: femcrowd run {shlex.quote(str(case_dir))}")
+
+
+@main.command()
+@click.argument("case_dir", type=click.Path())
+@set_option
+def info(case_dir, overrides):
+    """Resolved configuration, mesh statistics and run estimate of a case.
+
+    Mesh statistics: cells, edge lengths, angles, Delaunay check, boundary
+    groups and their lengths. Estimate: number of time steps and a run-time
+    range measured from a few steps on this machine (below 1 s for the
+    shipped cases). Nothing is written.
+
+    \b
+    Examples:
+      femcrowd info cases/room
+      femcrowd info cases/room --set mesh.refine=2
+    """
+    from ..driver.estimate import case_info
+
+    click.echo(format_info(case_info(load_case(case_dir, overrides))))
+
+
+def _duration(seconds):
+    return f"{seconds:.2g} s" if seconds < 60 else f"{seconds / 60:.2g} min"
+
+
+def format_info(info):
+    """The report printed by ``femcrowd info``."""
+    lines = [f"case: {info['case_file']}", "", "resolved configuration (defaults filled in):"]
+    for section, values in info["config"].items():
+        if not isinstance(values, dict):
+            lines.append(f"  {section} = {toml_value(values)}")
+            continue
+        lines.append(f"  [{section}]")
+        lines += [f"    {k} = {'(not set)' if v is None else toml_value(v)}" for k, v in values.items()]
+    m = info["mesh"]
+    lines += ["", "mesh:",
+              f"  {m['triangles']} triangles, {m['nodes']} nodes, area {m['area']:.4g} m^2",
+              f"  edge length h: min {m['h_min']:.3g} m, max {m['h_max']:.3g} m",
+              f"  angles: min {m['min_angle_deg']:.1f} deg, max {m['max_angle_deg']:.1f} deg; "
+              f"smallest cell {m['min_cell_area']:.3g} m^2",
+              "  Delaunay: " + ("yes (all interior pairs)" if m["non_delaunay_pairs"] == 0 else
+                                f"NO: {m['non_delaunay_pairs']} non-Delaunay pairs") +
+              f"; {m['clipped_transmissibilities']} transmissibilities clipped to keep the M-matrix",
+              "  boundary groups:"]
+    for name, length in m["boundary_groups"].items():
+        lines.append(f"    {name:<16} {length:9.4g} m   {'exit' if name in info['exits'] else 'wall'}")
+    e = info.get("estimate")
+    if e is None:
+        lines += ["", "run estimate: macro cases only"]
+        return "\n".join(lines)
+    low, high = e["seconds"]
+    lines += ["", "run estimate:",
+              f"  time step {e['dt']:.4g} s -> about {e['steps']} steps"
+              " (fewer if everybody has left before the end)",
+              f"  {e['frames']} frames",
+              f"  run time: {_duration(low)} (no congestion) to {_duration(high)} "
+              f"(the initial crowd's {e['congested_cells']} cells congested at every step)",
+              f"  measured here: {1e3 * e['free_step_seconds']:.3g} ms per free step, "
+              f"{1e3 * e['congested_step_seconds']:.3g} ms per congested step, "
+              f"{1e3 * e['frame_seconds']:.3g} ms per frame"]
+    return "\n".join(lines)

@@ -1,0 +1,118 @@
+"""The macro model as the driver runs it: its state and solver, its diagnostics table, its frames."""
+
+import time
+
+from ..macro import MacroSolver, MacroState
+from ..macro.diagnostics import invariants
+from .output import triangle_frame
+from .recorder import Column
+from .scene import Scene, check_transport_cfl, initial_density
+
+
+def macro_columns(exit_names) -> list:
+    """history.csv columns of a macro run and the summary entries made of them."""
+    return [
+        Column("time", (("final_time", "last"),)),
+        Column("dt"),
+        Column("mass", (("initial_mass", "first"), ("final_mass", "last"))),
+        Column("evacuated", (("evacuated", "last"),)),
+        Column("max_density", (("max_density_ever", "max"),)),
+        Column("saturated_area"),
+        Column("max_pressure", (("max_pressure_ever", "max"),)),
+        Column("active_set_iterations", (("active_set_iterations.mean", "mean_positive"),
+                                         ("active_set_iterations.max", "max"),
+                                         ("active_set_iterations.steps_with_projection", "count_positive"))),
+        Column("step_seconds"),
+        Column("min_density", (("min_density_ever", "min"),)),
+        Column("min_pressure", (("min_pressure_ever", "min"),)),
+        Column("complementarity", (("max_complementarity", "max"),)),
+        Column("linear_residual", (("max_linear_residual", "max"),)),
+        *[Column(f"evacuated_{name}", ((f"evacuated_by_exit.{name}", "last"),)) for name in exit_names],
+        Column("mass_error", (("mass_error", "last"), ("max_mass_error", "max")), history=False),
+        Column("pressure_unsaturated", (("max_pressure_unsaturated", "max"),), history=False),
+        Column("non_finite", (("non_finite_values", "sum"),), history=False),
+    ]
+
+
+class MacroModel:
+    """A MacroState and its MacroSolver for a scene; rows of diagnostics in the user's density unit."""
+
+    stem = "solution"  # the frame series: solution.pvd
+
+    def __init__(self, scene: Scene):
+        case, domain = scene.case, scene.domain
+        self.scene, self.domain = scene, domain
+        self.rho_max = case["model"]["rho_max"]
+        self.fields = case["output"]["fields"]
+        tic = time.perf_counter()
+        self.state = MacroState.initial(initial_density(case, domain)[None], len(domain.exit_names))
+        self.solver = MacroSolver(domain, scene.boundary, [scene.velocity], case["scheme"]["transport"],
+                                  case["time"]["cfl"], case["time"]["dt"],
+                                  case["projection"]["direct_max"], case["projection"]["tol"])
+        exits = scene.boundary.at(0.0)
+        self.solver.projection(exits)
+        check_transport_cfl(case, self.solver.transports(self.state, exits)[0])
+        scene.timing["assembly"] = time.perf_counter() - tic
+        self.initial_mass = self.mass
+        self.empty_mass = case["time"]["empty_fraction"] * self.initial_mass
+        self.stop_when_empty = case["time"]["stop_when_empty"] and bool(domain.exit_group)
+        self.evacuation_time = None   # the first time with less than empty_mass inside (scenes with exits)
+        self.columns = macro_columns(domain.exit_names)
+
+    @property
+    def t(self) -> float:
+        return self.state.t
+
+    @property
+    def mass(self) -> float:
+        return float(self.domain.area @ self.state.density)
+
+    @property
+    def timers(self) -> dict:
+        return self.solver.timers
+
+    def step(self, until: float) -> dict:
+        """One step, not beyond `until`; the solver's diagnostics of it."""
+        return self.solver.step(self.state, until)
+
+    def row(self, info=None) -> dict:
+        """The diagnostics of the current state (info: the step's, None for the initial state)."""
+        d = invariants(self.domain, self.state)
+        if info is None:
+            info = {"dt": 0.0, "active_set_iterations": 0, "linear_residual": 0.0, "step_seconds": 0.0}
+        elif self.evacuation_time is None and self.domain.exit_group and d["mass"] <= self.empty_mass:
+            self.evacuation_time = self.state.t
+        self.inside = d["mass"]
+        r = self.rho_max
+        error = abs(d["mass"] + d["evacuated"] - self.initial_mass) / max(self.initial_mass, 1e-300)
+        by_exit = {f"evacuated_{name}": float(v) * r
+                   for name, v in zip(self.domain.exit_names, self.state.evacuated.sum(axis=0))}
+        return {**by_exit, "time": self.state.t, "dt": info["dt"], "mass": d["mass"] * r,
+                "evacuated": d["evacuated"] * r, "max_density": d["max_density"] * r,
+                "saturated_area": d["saturated_area"], "max_pressure": d["max_pressure"],
+                "active_set_iterations": info["active_set_iterations"], "step_seconds": info["step_seconds"],
+                "min_density": d["min_density"] * r, "min_pressure": d["min_pressure"],
+                "complementarity": d["complementarity"], "linear_residual": info["linear_residual"],
+                "mass_error": error, "pressure_unsaturated": d["pressure_unsaturated"],
+                "non_finite": d["non_finite"]}
+
+    def empty(self) -> bool:
+        """Has the crowd left (less than time.empty_fraction of it inside), in a scene that stops then?"""
+        return self.stop_when_empty and self.inside <= self.empty_mass
+
+    def frame(self):
+        """The cell fields asked for in [output].fields, in user units, on the triangles."""
+        data = {}
+        if "density" in self.fields:
+            data["density"] = self.state.density * self.rho_max
+        if "pressure" in self.fields:
+            data["pressure"] = self.state.p
+        if "velocity" in self.fields:
+            data["velocity"] = self.solver.velocity_field(self.state)
+        return triangle_frame(self.domain, data)
+
+    def summary(self, recorded: dict) -> dict:
+        """What the summary adds to the recorder's entries."""
+        return {"steps": self.state.steps,
+                "remaining_fraction": self.mass / self.initial_mass if self.initial_mass > 0 else 0.0,
+                "evacuation_time": self.evacuation_time}

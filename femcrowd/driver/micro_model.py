@@ -1,0 +1,106 @@
+"""The disc model as the driver runs it: discs of the scene, catching-up steps, diagnostics table, frames.
+
+The discs come from ``[micro].positions`` (CSV with x, y, r) or are sampled without overlap
+from ``[initial]`` (count from ``[micro].count``, else from the density at the hexagonal
+packing density); walls and obstacles are the wall facets of the mesh, exits its exit
+facets. Time step: ``time.dt``, else tau = cfl * r_min / max|U| (a disc moves at most cfl
+radii per step).
+"""
+
+import time
+
+import numpy as np
+
+from ..micro import MicroSimulation
+from .output import disc_frame
+from .recorder import Column
+from .scene import Scene, initial_discs
+
+MICRO_COLUMNS = [
+    Column("time", (("final_time", "last"),)),
+    Column("dt"),
+    Column("count", (("initial_count", "first"), ("final_count", "last"))),
+    Column("evacuated", (("evacuated", "last"),)),
+    Column("contacts"),
+    Column("max_overlap", (("max_overlap", "max"),)),
+    Column("solver_iterations", (("solver_iterations.mean", "mean_over_steps"), ("solver_iterations.max", "max"))),
+    Column("step_seconds"),
+    Column("kkt", (("max_kkt", "max"),)),
+    Column("outside", (("discs_outside", "max"),), history=False),
+]
+
+
+class MicroModel:
+    """A MicroSimulation of the scene's discs; rows of diagnostics, disc frames."""
+
+    stem = "discs"  # the frame series: discs.pvd
+    columns = MICRO_COLUMNS
+
+    def __init__(self, scene: Scene):
+        case, domain, boundary = scene.case, scene.domain, scene.boundary
+        self.domain = domain
+        tic = time.perf_counter()
+        exits = boundary.at(0.0)
+        q, r = initial_discs(case, domain, exits)
+        velocity = scene.velocity
+        speed = np.hypot(*velocity.at_points(domain.centroid, 0.0, exits).T).max()
+        tau = case["time"]["dt"]
+        if tau is None:
+            tau = case["time"]["cfl"] * r.min() / speed if speed > 0 else case["output"]["every"]
+        self.tau = tau
+        self.sim = MicroSimulation(q, r, exits.segments("wall"), exits.segments("exit"),
+                                   lambda xy, t: velocity.at_points(xy, t, boundary.at(t)), tau,
+                                   method=case["micro"]["method"])
+        scene.timing["discs"] = time.perf_counter() - tic
+        self.r_min = float(r.min())
+        self.stop_when_empty = case["time"]["stop_when_empty"] and bool(domain.exit_group)
+        self.evacuation_time = None
+        self.last = None   # the last step's StepInfo (positions, velocities, pressures of its discs)
+        self.timers = {}
+
+    @property
+    def t(self) -> float:
+        return self.sim.t
+
+    @property
+    def state(self) -> MicroSimulation:
+        """The discs: positions q, radii r, velocities u of those still inside."""
+        return self.sim
+
+    def step(self, until: float):
+        """One step, not beyond `until` (a shorter one lands exactly on it); its StepInfo."""
+        sim = self.sim
+        sim.tau = min(self.tau, until - sim.t)
+        info = sim.step()
+        if until - sim.t < 1e-12 * max(1.0, until):
+            sim.t = until
+        sim.tau = self.tau
+        self.last = info
+        if info.count == 0 and self.evacuation_time is None and self.domain.exit_group:
+            self.evacuation_time = sim.t
+        return info
+
+    def row(self, info=None) -> dict:
+        """The diagnostics of a step (info: its StepInfo; None: the initial discs)."""
+        sim = self.sim
+        outside = int(np.count_nonzero(self.domain.locate(sim.q) < 0))
+        if info is None:
+            return {"time": sim.t, "dt": 0.0, "count": sim.count, "evacuated": 0, "contacts": 0,
+                    "max_overlap": 0.0, "solver_iterations": 0, "step_seconds": 0.0, "kkt": 0.0, "outside": outside}
+        return {**info.row(), "time": sim.t, "outside": outside}
+
+    def empty(self) -> bool:
+        return self.stop_when_empty and self.sim.count == 0
+
+    def frame(self):
+        """The discs with radius, velocity and pressure (t = 0: desired velocities, no contact forces yet)."""
+        if self.last is None:
+            sim = self.sim
+            u = sim.desired_velocity() if sim.count else np.zeros((0, 2))
+            return disc_frame(sim.q, sim.r, u, np.zeros(sim.count))
+        return disc_frame(self.last.q, self.last.r, self.last.u, self.last.pressure)
+
+    def summary(self, recorded: dict) -> dict:
+        """What the summary adds to the recorder's entries."""
+        return {"steps": self.sim.nstep, "tau": self.tau, "evacuation_time": self.evacuation_time,
+                "max_overlap_over_radius": recorded["max_overlap"] / self.r_min}

@@ -1,0 +1,137 @@
+"""Writing a run: the output directory, VTU frames + PVD collection, history.csv, summary.json.
+
+Every file is written so that an interrupted run leaves what it wrote readable:
+frames are complete files, the PVD index and summary.json are replaced
+atomically, history.csv is flushed row by row. A directory holding files that
+femcrowd did not write is never written into unless the user forces it. A new
+run in a directory of an earlier run replaces that run's files (and says so);
+pictures made by ``femcrowd plot`` live apart, in ``plots/``, and are left alone.
+"""
+
+import csv
+import json
+import logging
+import os
+import shutil
+from pathlib import Path
+
+import meshio
+import numpy as np
+
+from ..errors import InputError
+
+log = logging.getLogger("femcrowd")
+
+MARKER = ".femcrowd-run"
+#: the files of a run: cleared when a new run replaces an old one
+RUN_FILES = ("solution_*.vtu", "discs_*.vtu", "solution.pvd", "discs.pvd", "history.csv", "summary.json",
+             "case.toml")
+
+
+def prepare_output_dir(path, case_file, force=False) -> Path:
+    """Create the output directory, or clear a previous femcrowd run in it; refuse foreign ones.
+
+    The marker that allows a later run to clear the directory is only left where
+    femcrowd owns the directory (new, empty, or marked): after --force into a
+    foreign directory the next run needs --force again, so femcrowd never
+    deletes a file it did not write.
+    """
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise InputError(case_file, "output.dir", str(path), "exists and is not a directory")
+    if path.is_dir() and any(path.iterdir()) and not (path / MARKER).exists() and not force:
+        raise InputError(case_file, "output.dir", str(path),
+                         "directory is not empty and was not written by femcrowd "
+                         "(choose another --out, or pass --force to write into it)")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise InputError(case_file, "output.dir", str(path), f"cannot create: {err.strerror}") from None
+    if (path / MARKER).exists():
+        old = [f for pattern in RUN_FILES for f in path.glob(pattern)]
+        for f in old:
+            f.unlink()
+        if old:
+            plots = " (its pictures in plots/ are kept: `femcrowd plot` remakes them)" \
+                if (path / "plots").is_dir() else ""
+            log.warning("replacing the earlier run in %s: %d files%s", path, len(old), plots)
+    elif not any(path.iterdir()):
+        (path / MARKER).write_text("written by femcrowd; safe to overwrite with a new run\n")
+    return path
+
+
+def write_json(path, data) -> None:
+    """Write JSON atomically (a reader never sees half a file)."""
+    tmp = Path(path).with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(data, indent=2, default=_json_default) + "\n")
+    os.replace(tmp, path)
+
+
+def _json_default(value):
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, Path):
+        return str(value)
+    raise TypeError(type(value))
+
+
+def copy_case(case_file, directory) -> None:
+    shutil.copyfile(case_file, Path(directory) / "case.toml")
+
+
+class FrameSeries:
+    """A time series of VTU files indexed by a PVD collection (ParaView reads the times)."""
+
+    def __init__(self, directory, stem):
+        self.directory, self.stem = Path(directory), stem
+        self.frames = []
+
+    def write(self, t, mesh):
+        name = f"{self.stem}_{len(self.frames):05d}.vtu"
+        meshio.vtu.write(str(self.directory / name), mesh, binary=True, compression="zlib")
+        self.frames.append((float(t), name))
+        # meshio has no .pvd writer: the collection is a few lines of XML.
+        rows = "\n".join(f'    <DataSet timestep="{t!r}" group="" part="0" file="{f}"/>'
+                         for t, f in self.frames)
+        text = ('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1" '
+                f'byte_order="LittleEndian">\n  <Collection>\n{rows}\n  </Collection>\n</VTKFile>\n')
+        tmp = self.directory / f"{self.stem}.pvd.tmp"
+        tmp.write_text(text)
+        os.replace(tmp, self.directory / f"{self.stem}.pvd")
+
+
+def triangle_frame(domain, cell_data) -> meshio.Mesh:
+    """A meshio mesh of the domain's triangles with cell data (vectors padded to 3 components)."""
+    points = np.column_stack([domain.points, np.zeros(len(domain.points))])
+    data = {name: [np.column_stack([v, np.zeros(len(v))]) if v.ndim == 2 and v.shape[1] == 2 else v]
+            for name, v in cell_data.items()}
+    return meshio.Mesh(points, [("triangle", domain.triangles)], cell_data=data)
+
+
+def disc_frame(q, r, u, pressure) -> meshio.Mesh:
+    """A meshio point cloud of discs with radius, velocity (3 components) and pressure point data."""
+    points = np.column_stack([q, np.zeros(len(q))])
+    return meshio.Mesh(points, [("vertex", np.arange(len(q)).reshape(-1, 1))],
+                       point_data={"radius": r, "velocity": np.column_stack([u, np.zeros(len(q))]),
+                                   "pressure": pressure})
+
+
+class HistoryFile:
+    """history.csv, one row per step, flushed so that an interrupted run keeps it."""
+
+    def __init__(self, path, columns):
+        self.columns = columns
+        self._file = open(path, "w", newline="")
+        self._writer = csv.writer(self._file)
+        self._writer.writerow(columns)
+
+    def append(self, row) -> None:
+        self._writer.writerow([_fmt(row[c]) for c in self.columns])
+        self._file.flush()
+
+    def close(self) -> None:
+        self._file.close()
+
+
+def _fmt(value):
+    return repr(float(value)) if isinstance(value, (float, np.floating)) else value

@@ -1,0 +1,139 @@
+"""A case turned into a scene, the same for both models: the floor plan, its exits over time, the desired
+velocity, the initial crowd (pyro2's problem set-up, apart from the solvers).
+
+Everything that can fail on bad input (mesh, exits, expressions, initial density, discs) is
+checked here, before the output directory is touched, so a bad case never overwrites results.
+"""
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..case import Case, Expression
+from ..errors import InputError
+from ..macro.velocity import ExitsVelocity, FieldVelocity
+from ..mesh import Boundary, Domain, load_domain
+from ..micro.sampling import read_discs_csv, sample_discs
+
+
+@dataclass
+class Scene:
+    """The case, its domain, the exits over time (boundary), the desired velocity and the set-up times."""
+
+    case: Case
+    domain: Domain
+    boundary: Boundary
+    velocity: object
+    timing: dict = field(default_factory=dict)
+
+
+def build_scene(case: Case) -> Scene:
+    """Load the mesh and build the desired velocity of a case (timed: mesh, desired_velocity)."""
+    tic = time.perf_counter()
+    domain = load_domain(case.path(case["mesh"]["file"]), case["boundary"]["exits"],
+                         case["mesh"]["refine"], case.file)
+    boundary = Boundary(domain)
+    toc = time.perf_counter()
+    velocity = desired_velocity(case, domain, boundary)
+    return Scene(case, domain, boundary, velocity,
+                 {"mesh": toc - tic, "desired_velocity": time.perf_counter() - toc})
+
+
+def desired_velocity(case: Case, domain: Domain, boundary: Boundary):
+    """The [velocity] of the case; for type "exits" the distance field of the exits open at t = 0 is
+    computed here (set-up), those of other door states when they first occur."""
+    spec = case["velocity"]
+    if spec["type"] == "field":
+        where = np.vstack([domain.centroid, domain.midpoint])
+        ux, uy = (_checked(case.expression("velocity", k), where, case, "velocity", k) for k in ("ux", "uy"))
+        return FieldVelocity(domain, ux, uy)
+    if not domain.exit_group:
+        raise InputError(case.file, "velocity.type", "exits",
+                         "needs at least one exit (set boundary.exits) or use type = 'field'")
+    speed = case.expression("velocity", "speed")
+    if speed.depends_on_time:
+        raise InputError(case.file, "velocity.speed", spec["speed"],
+                         "must not depend on t for type = 'exits'")
+    values = _checked(speed, domain.centroid, case, "velocity", "speed")(*domain.centroid.T)
+    if values.min() < 0:
+        raise InputError(case.file, "velocity.speed", spec["speed"],
+                         f"is negative ({values.min():.3g}) somewhere: people would walk away from the exits "
+                         "(for such a scene give U itself: type = 'field')")
+    velocity = ExitsVelocity(domain, speed)
+    velocity.cells(boundary.at(0.0))
+    return velocity
+
+
+def _checked(expr, xy, case, section, key):
+    """Evaluate once to reject non-finite values at load time; return the expression."""
+    values = expr(xy[:, 0], xy[:, 1], 0.0)
+    if not np.all(np.isfinite(values)):
+        raise InputError(case.file, f"{section}.{key}", case[section][key],
+                         "gives non-finite values on the mesh")
+    return expr
+
+
+def initial_density(case: Case, domain: Domain) -> np.ndarray:
+    """Cell averages of the initial density, scaled by rho_max."""
+    rho_max = case["model"]["rho_max"]
+    density = domain.cell_average(Expression(case["initial"]["density"]))
+    if not np.all(np.isfinite(density)):
+        raise InputError(case.file, "initial.density", case["initial"]["density"],
+                         "gives non-finite values on the mesh")
+    subdomains = domain.mesh.subdomains or {}
+    for name, value in case["initial"]["regions"].items():
+        if name not in subdomains:
+            raise InputError(case.file, f"initial.regions.{name}", value,
+                             f"no surface group of that name (groups: {', '.join(subdomains) or 'none'})")
+        if not 0 <= value <= rho_max:
+            raise InputError(case.file, f"initial.regions.{name}", value, f"is outside [0, rho_max = {rho_max:g}]")
+        density[np.asarray(subdomains[name])] = value
+    low, high = float(density.min()), float(density.max())
+    if low < 0 or high > rho_max * (1 + 1e-12):
+        bad = low if low < 0 else high
+        raise InputError(case.file, "initial.density", case["initial"]["density"],
+                         f"density {bad:g} is outside [0, rho_max = {rho_max:g}]")
+    return np.minimum(density / rho_max, 1.0)
+
+
+def initial_discs(case: Case, domain: Domain, exits):
+    """(q, r) of the disc model: from the CSV of [micro].positions, or sampled without overlap from the
+    initial density (clear of the walls and exits of `exits`)."""
+    spec = case["micro"]
+    if spec["positions"] is not None:
+        try:
+            q, r = read_discs_csv(case.path(spec["positions"]))
+        except (OSError, ValueError) as err:
+            raise InputError(case.file, "micro.positions", spec["positions"],
+                             getattr(err, "strerror", None) or str(err)) from None
+        outside = domain.locate(q) < 0
+        if outside.any():
+            raise InputError(case.file, "micro.positions", spec["positions"],
+                             f"{outside.sum()} disc centres lie outside the domain "
+                             f"(first: {q[outside][0].tolist()})")
+        return q, r
+    rho = initial_density(case, domain)  # cell values, scaled to [0, 1]
+    q, r = sample_discs(lambda xy: rho[np.maximum(domain.locate(xy), 0)], domain.points,
+                        domain.triangles, spec["radius"], spec["count"],
+                        walls=exits.segments("wall"), exits=exits.segments("exit"), seed=spec["seed"])
+    if len(q) == 0:
+        raise InputError(case.file, "initial.density", case["initial"]["density"],
+                         "gives no discs (an empty crowd)")
+    return q, r
+
+
+def check_transport_cfl(case: Case, transport) -> None:
+    """Refuse a time step beyond the transport's own CFL number (max_cfl: 1 for upwind, beyond
+    which densities can become negative; 0.5 for the higher-order transports, beyond which
+    they oscillate).
+
+    transport: the transport object, or its class when the case has no time.dt."""
+    name, limit, dt = case["scheme"]["transport"], transport.max_cfl, case["time"]["dt"]
+    if dt is None and case["time"]["cfl"] > limit:
+        raise InputError(case.file, "time.cfl", case["time"]["cfl"],
+                         f"must be <= {limit:g} with scheme.transport = {name!r}")
+    if dt is not None and dt > limit * transport.max_dt:
+        raise InputError(case.file, "time.dt", dt, f"exceeds {limit:g} x the CFL limit "
+                         f"{transport.max_dt:.3g} s of the upwind scheme, the most scheme.transport = "
+                         f"{name!r} allows (use a smaller dt, or time.cfl)")

@@ -1,0 +1,120 @@
+"""Direct solves of A_SS x = b on the saturated sets S of the projection, inside a fixed envelope of cells.
+
+One symbolic analysis per envelope, one numeric factorisation per S, and none for an S
+that grows by a few cells (bordering, a Schur complement on the new cells).
+"""
+
+import numpy as np
+
+from .cholmod import Cholesky, lower_pattern
+
+#: a factorisation is replaced by a tighter one when S shrinks below SHRINK times the S it was made for
+SHRINK = 0.6
+#: an S that grows by at most this many cells from the factorised one is solved by bordering (a Schur
+#: complement on the new cells: k + 1 forward and one backward substitution with the kept factor) instead
+#: of a new numeric factorisation; beyond it bordering costs more (benchmarks/bordering.py,
+#: docs/performance.md "Bordered solves")
+BORDER_MAX = 8
+
+
+class EnvelopeCholesky:
+    """Sparse Cholesky factorisation of A_SS for every S inside a fixed envelope E of cells.
+
+    The matrix factorised is K = T A_EE T + diag(A_EE) (I - T), T = diag(1_S): A_SS on S and
+    its diagonal elsewhere (so x = 0 off S). Its sparsity pattern is that of A_EE whatever S
+    is, so the symbolic analysis (fill-reducing ordering, supernodes) is done once per
+    envelope and a new S costs one numeric factorisation (CHOLMOD rather than SuperLU or an
+    AMG set-up: docs/performance.md).
+
+    An S that grows from the factorised S_0 by a few cells J (the last stragglers of an
+    active-set iteration) is solved by bordering: with C = A_{S_0 J},
+
+        Sigma = A_JJ - C^T A_00^{-1} C,   x_J = Sigma^{-1} (b_J - C^T A_00^{-1} b_0),
+        x_0 = A_00^{-1} (b_0 - C x_J),
+
+    through the factor P A_00 P^T = L D L^T: |J| + 1 forward substitutions and one backward.
+    """
+
+    def __init__(self, A, envelope, size, order=None):
+        """envelope: the cells of E (sorted); size: |S| of the S that E was made around; order: rank
+        of every cell in a fill-reducing order (None: CHOLMOD's own choice)."""
+        self.A, self.cells, self.size = A, envelope, size
+        self.position = np.full(A.shape[0], -1, np.intp)  # position of a cell in E (-1: not in E)
+        self.position[envelope] = np.arange(len(envelope))
+        self.row, self.col, self.values = lower_pattern(A[envelope][:, envelope])
+        self.diagonal = self.row == self.col
+        self.factor = Cholesky(self.row, self.col, len(envelope), None if order is None else order[envelope])
+        self.active = None                 # positions of the factorised S in E
+        self.mask = np.zeros(len(envelope), bool)  # the factorised S as a mask on E
+        self.inverse_d = None              # D^{-1} of the factor (ones for a supernodal L L^T)
+
+    def fits(self, cells):
+        """cells inside the envelope, and not fewer than SHRINK times the S it was made around
+        (else a new, tighter one pays off)."""
+        return len(cells) >= SHRINK * self.size and bool(np.all(self.position[cells] >= 0))
+
+    def factorised(self):
+        """The cells of the factorised S (sorted)."""
+        return self.cells[self.active]
+
+    def needs_factorisation(self, cells):
+        """False when S = cells is the factorised S or grows from it by at most BORDER_MAX cells."""
+        if self.active is None:
+            return True
+        kept = np.count_nonzero(self.mask[self.position[cells]])
+        return kept != len(self.active) or len(cells) - kept > BORDER_MAX
+
+    def prepare(self, cells):
+        """Numeric factorisation of K for S = cells when needed; returns whether one was made."""
+        if not self.needs_factorisation(cells):
+            return False
+        self.active = self.position[cells]
+        self.mask[:] = False
+        self.mask[self.active] = True
+        keep = self.diagonal | (self.mask[self.row] & self.mask[self.col])
+        self.factor.factorise(np.where(keep, self.values, 0.0))
+        self.inverse_d = None
+        return True
+
+    def solve(self, cells, rhs):
+        """x on S = cells with A_SS x = rhs (after prepare(cells))."""
+        at = self.position[cells]
+        old = self.mask[at]
+        if old.all():
+            return self._substitute(rhs)
+        new = at[~old]
+        rows = self.A[self.cells[new]]
+        k = len(new)
+        row = np.repeat(np.arange(k), np.diff(rows.indptr))
+        position = self.position[rows.indices]
+        coupled = (position >= 0) & self.mask[position]  # entries of C^T = A_{J S_0}
+        j = np.minimum(np.searchsorted(new, position), k - 1)
+        within = new[j] == position                       # entries of A_JJ
+        A_JJ = np.zeros((k, k))
+        np.add.at(A_JJ, (row[within], j[within]), rows.data[within])
+        V = np.zeros((len(self.cells), k + 1), order="F")  # [b_0 | C], then L^{-1} P [b_0 | C]
+        V[self.active, 0] = rhs[old]
+        V[position[coupled], 1 + row[coupled]] = rows.data[coupled]
+        V = self._forward(V)
+        if self.inverse_d is None:
+            self.inverse_d = np.array(self.factor.solve(np.ones(len(self.cells)), "D")).ravel()
+        DV = self.inverse_d[:, None] * V
+        sigma = A_JJ - V[:, 1:].T @ DV[:, 1:]
+        x = np.empty(len(at))
+        x[~old] = np.linalg.solve(sigma, rhs[~old] - V[:, 1:].T @ DV[:, 0])
+        x[old] = self._backward(DV[:, 0] - DV[:, 1:] @ x[~old])[self.active]
+        return x
+
+    def _substitute(self, rhs):
+        """K^{-1} b on the factorised S, for b = rhs there and 0 elsewhere."""
+        b = np.zeros(len(self.cells))
+        b[self.active] = rhs
+        return np.array(self.factor.solve(b)).ravel()[self.active]
+
+    def _forward(self, b):
+        """L^{-1} P b."""
+        return np.array(self.factor.solve(self.factor.solve(b, "P"), "L")).reshape(b.shape, order="F")
+
+    def _backward(self, y):
+        """P^T L^{-T} y (y already scaled by D^{-1})."""
+        return np.array(self.factor.solve(self.factor.solve(y, "Lt"), "Pt")).ravel()

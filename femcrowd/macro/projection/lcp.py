@@ -1,0 +1,174 @@
+"""Correction step: the projection of rho~ onto {rho <= 1} as a linear complementarity problem
+(design note, sec. 2, step 2; Maury, Roudneff-Chupin, Santambrogio 2010).
+
+Find phi = tau p on the cells such that
+
+    w = M_L (1 - rho~) + A phi >= 0,   phi >= 0,   phi . w = 0,
+
+with A the two-point Laplacian of the open exits (an M-matrix, exits Dirichlet, walls
+Neumann) and M_L the cell areas; then |K| rho_K = |K| rho~_K - (A phi)_K. It is solved
+exactly by primal-dual active-set iterations (Hintermueller, Ito, Kunisch 2003): on the
+saturated set S solve A_SS phi_S = -b_S, set phi = 0 elsewhere, then
+S <- {phi >= 0 on S} U {w < 0 off S}; for an M-matrix this terminates in finitely many
+steps. The iterations work on S and its neighbour layer only; intermediate AMG solves are
+loose (only their signs matter) until S (nearly) settles (inexact Newton), and the loop
+stops only on an S reproduced by a tight solve.
+"""
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .rooms import ClosedRooms
+from .sets import CellSets, product, restriction
+from .solvers import CellOrder, SaturatedSolver
+from .warm_start import MAX_SPILLS, WarmStart
+
+#: density tolerance of the intermediate active-set iterations (only their signs matter)
+LOOSE = 1e-6
+#: solves are tight from the iteration that changes fewer than this fraction of S
+TIGHT_SWITCH = 1e-3
+
+
+class ProjectionError(RuntimeError):
+    """The active-set iteration did not terminate (it always does for an M-matrix)."""
+
+
+@dataclass
+class PressureFlux:
+    """The correction of one step: phi = tau p and the mass it moves, -div(grad phi).
+
+    ``outflow[i] = (A phi)_K`` for the cells K = ``cells[i]`` (S and its neighbours, A phi = 0
+    elsewhere) is the net mass K sends across its facets in the step, the sum of the facet
+    fluxes T_e (phi_K - phi_L) (phi_L = 0 across an open exit): :meth:`facet_flux` gives
+    those, for a split of the correction among populations or a measurement line.
+    """
+
+    phi: np.ndarray
+    cells: np.ndarray
+    outflow: np.ndarray
+
+    def apply(self, rho_tilde: np.ndarray, area: np.ndarray) -> np.ndarray:
+        """rho = rho~ - (A phi) / |K|: mass moves between cells or leaves through the exits."""
+        rho = rho_tilde.copy()
+        rho[self.cells] -= self.outflow / area[self.cells]
+        return rho
+
+    def facet_flux(self, domain, exits) -> np.ndarray:
+        """Mass moved across each facet in the step, f2t[0] -> f2t[1] (out of the domain through an exit)."""
+        k0, k1 = domain.f2t
+        far = np.where(domain.interior, self.phi[np.maximum(k1, 0)], 0.0)
+        return exits.transmissibility * (self.phi[k0] - far)
+
+
+class Projection:
+    """Exact LCP projection on one set of open exits, warm-started from the previous step."""
+
+    def __init__(self, domain, exits, direct_max=1_000_000, tol=1e-12, max_iterations=None, reuse=True,
+                 order=None):
+        self.A = exits.laplacian()
+        self.A.sort_indices()
+        self.area = domain.area
+        self.tol = tol
+        self.direct_max = direct_max
+        has_exit = np.bincount(domain.f2t[0][exits.exit], minlength=domain.ncells) > 0
+        self.rooms = ClosedRooms(self.A, has_exit)
+        self.sets = CellSets(domain.ncells)
+        self.solver = SaturatedSolver(self.A, self.area, direct_max, order or CellOrder(), self.sets, reuse)
+        self.warm = WarmStart(self.A, self.area, tol, self.sets, self.solver, self.rooms.gauge)
+        self.reuse = reuse
+        # S grows by about one layer of cells per iteration, so a stiff front (rho ~ 0.999 running
+        # into a wall: the saturated zone advances ~1/(1 - rho) cells per step) needs as many
+        # iterations as the front crosses cells; the M-matrix bound is n + 1 (monotone iterates).
+        self.max_iterations = max_iterations or domain.ncells + 1
+
+    def __call__(self, rho_tilde: np.ndarray):
+        """Return (PressureFlux, info) for one correction step of the total density rho~.
+
+        info: iterations (active-set iterations, each with a solve on S to the tolerance, or a
+        loose one on the AMG path), factorizations (numeric Cholesky factorisations among them),
+        band_solves (local solves of the warm-start predictor), linear_residual (max |r_K| / |K|
+        of the linear solves), unknowns (|S|), linear_iterations (CG of the AMG path), rebuilds
+        (new envelopes / AMG set-ups), and seconds spent in detect (rho~ > 1), predict (the
+        predictor), setup (numeric factorisations, AMG set-ups), solve and active_set (the rest).
+        """
+        tic = time.perf_counter()
+        b = self.area * (1.0 - rho_tilde)
+        over = np.flatnonzero(b < 0)
+        info = {"iterations": 0, "factorizations": 0, "band_solves": 0, "linear_residual": 0.0, "unknowns": 0,
+                "linear_iterations": 0, "rebuilds": 0, "predict": 0.0, "setup": 0.0, "solve": 0.0}
+        if not over.size:
+            self.warm.forget()
+            info.update(detect=time.perf_counter() - tic, active_set=0.0)
+            return PressureFlux(np.zeros_like(b), np.zeros(0, np.intp), np.zeros(0)), info
+        # cells that enter S wherever they are (w = b off the neighbourhood of S)
+        strict = over[b[over] < -self.tol * self.area[over]]
+        toc = time.perf_counter()
+        info["detect"] = toc - tic
+        spills, tight = 0, False  # inexact Newton: loose solves until S (nearly) settles, then tight ones
+        if self.reuse and self.warm.can_predict():
+            S, x0 = self.warm.predict(b, strict, info)
+            info["predict"] = time.perf_counter() - toc
+            spills, tight = 1, True
+        else:
+            S, x0, updated = self.warm.first_update(over, b, strict, self._next)
+            if updated:
+                spills, tight = 1, self.sets.changed(self.warm.active, S) <= TIGHT_SWITCH * len(S)
+        for iteration in range(1, self.max_iterations + 1):
+            rows = self.A[S]
+            L, col, in_S, s_in_L = self.sets.neighbourhood(rows, S)
+            tight = tight or len(S) <= self.direct_max  # a factorisation solves exactly anyway
+            phi_S, keep = self._solve(rows, S, col, in_S, -b[S], x0, info,
+                                      self.tol if tight else max(self.tol, LOOSE))
+            Aphi = product(rows, col, len(L), phi_S)
+            w = b[L] + Aphi
+            # the residual of the linear solve (w = 0 on S but in the gauge cells of closed rooms)
+            info["linear_residual"] = float(np.max(np.abs(w[s_in_L][keep]) / self.area[S[keep]], initial=0.0))
+            new = self._next(S, phi_S, w, strict, L, in_S, s_in_L)
+            if np.array_equal(new, S):
+                if tight:
+                    break
+                tight, x0 = True, phi_S  # S settled on a loose solve: solve it again exactly
+                continue
+            if spills < MAX_SPILLS and self.sets.changed(S, new) == len(new) - len(S):  # S only grows:
+                new, spills = self.warm.spill(S, new, b, L, w), spills + 1  # spread the overflow
+            tight = tight or self.sets.changed(S, new) <= TIGHT_SWITCH * len(S)
+            x0 = self.sets.carry(S, phi_S, new)
+            S = new
+        else:
+            raise ProjectionError(f"active-set iterations did not terminate in {self.max_iterations}")
+        self.warm.remember(S, phi_S)
+        phi = np.zeros_like(b)
+        phi[S] = phi_S
+        info.update(iterations=iteration, unknowns=len(S))
+        info["active_set"] = time.perf_counter() - tic - info["detect"] - info["predict"] - info["setup"] \
+            - info["solve"]
+        return PressureFlux(phi, L, Aphi), info
+
+    def _next(self, S, phi_S, w, strict, L, in_S, s_in_L):
+        """The active-set update: S <- {phi >= 0 on S} U {w < 0 off S}, with w = b + A phi on L."""
+        phi_L = np.zeros(len(L))
+        phi_L[s_in_L] = phi_S
+        # A cell of S with phi = 0 (and w = 0) solves the LCP whether it is in S or not; it
+        # stays in S. Dropping it makes a closed saturated room cycle: its gauge cell has
+        # phi = 0 exactly, leaves S, and re-enters on a round-off w < 0 the next iteration.
+        stay = np.where(in_S, phi_L >= 0, w < -self.tol * self.area[L])
+        mark = self.sets.mark
+        mark[L] = True
+        far = strict[~mark[strict]]
+        mark[L] = False
+        return self.sets.union(L[stay], far) if far.size else L[stay]
+
+    def _solve(self, rows, S, col, in_S, rhs, x0, info, tol):
+        """Solve A_SS phi_S = rhs; returns phi_S and the mask of the cells of S whose equation holds
+        (all but the pinned cells of the closed rooms entirely in S, see rooms.py)."""
+        full = self.rooms.full(S)
+        keep = self.rooms.unpinned(S, full)
+        x = np.zeros(len(S))
+        if keep.any():
+            def matrix():  # A on S[keep], for the AMG path only
+                A_SS = restriction(rows, col, in_S)
+                return A_SS if keep.all() else A_SS[keep][:, keep]
+            x[keep] = self.solver.solve(matrix, S[keep], rhs[keep], x0[keep], info, tol)
+        return self.rooms.gauge_shift(x, S, full), keep

@@ -1,0 +1,45 @@
+"""Closed rooms: the components of the domain with no open exit, where a saturated crowd makes A_SS singular.
+
+A component of S is a closed, fully saturated room (pure Neumann problem) exactly when it
+is a whole connected component of A's graph with no exit cell, so the components are found
+once per set of open exits. There the solution exists (rho stays 1) and phi is fixed up to a
+constant: one cell per room is pinned (phi = 0) for the solve, then the room is shifted so
+that min phi = 0 (the gauge of the design note, sec. 2).
+"""
+
+import numpy as np
+from scipy.sparse.csgraph import connected_components
+
+
+class ClosedRooms:
+    """Components of A's graph, which of them have no exit, and their gauge cells."""
+
+    def __init__(self, A, has_exit: np.ndarray):
+        ncomp, self.component = connected_components(A, directed=False)
+        self.closed = np.bincount(self.component, has_exit, ncomp) == 0
+        self.size = np.bincount(self.component, minlength=ncomp)
+        self.first_cell = np.unique(self.component, return_index=True)[1]  # the gauge cell of a closed room
+        self.gauge = np.zeros(len(has_exit), bool)
+        self.gauge[self.first_cell[self.closed]] = True
+
+    def full(self, S: np.ndarray) -> np.ndarray:
+        """The closed rooms entirely inside the sorted set S."""
+        if not self.closed.any():
+            return np.zeros(0, np.intp)
+        inside = np.bincount(self.component[S], minlength=len(self.closed))
+        return np.flatnonzero(self.closed & (inside == self.size))
+
+    def unpinned(self, S: np.ndarray, full: np.ndarray) -> np.ndarray:
+        """Mask of the cells of S that are not the pinned cell of a full room."""
+        keep = np.ones(len(S), bool)
+        keep[np.searchsorted(S, self.first_cell[full])] = False
+        return keep
+
+    def gauge_shift(self, x: np.ndarray, S: np.ndarray, full: np.ndarray) -> np.ndarray:
+        """x on S shifted in each full room so that its minimum is 0."""
+        if not full.size:
+            return x
+        label = self.component[S]
+        lowest = np.full(len(self.closed), np.inf)
+        np.minimum.at(lowest, label, x)
+        return x - np.where(np.isin(label, full), lowest[label], 0.0)

@@ -1,0 +1,103 @@
+"""The linear solves A_SS x = b of the active-set iterations, with the factorisations and AMG
+hierarchies kept between iterations and steps.
+
+Systems up to ``direct_max`` unknowns are factorised (sparse Cholesky on an envelope of S,
+:class:`~femcrowd.linalg.envelope.EnvelopeCholesky`, in a nested-dissection order of the mesh
+computed once); larger ones are solved by CG preconditioned with a Ruge-Stuben V-cycle, the
+hierarchy kept while S is unchanged. Iterative solves stop when every cell's density is within
+``tol`` of its target (|r_K| <= tol |K|) or at the round-off level of A phi, so the bound
+rho <= 1 + tol holds whatever the conditioning. Measured choices: docs/performance.md.
+"""
+
+import time
+
+import numpy as np
+import pymetis
+
+from ...linalg.amg import Hierarchy, pcg
+from ...linalg.envelope import EnvelopeCholesky
+
+#: layers of neighbours around S in the envelope of a factorisation (the front moves a few cells per step)
+ENVELOPE_LAYERS = 8
+#: round-off of (A phi)_K in units of eps * A_KK * max|phi| (floor of the iterative stopping test)
+ROUNDOFF = 64 * np.finfo(float).eps
+
+
+class CellOrder:
+    """Rank of every cell in a nested-dissection order of the cells' adjacency (METIS; Karypis, Kumar 1998),
+    computed on first use and shared by the projections of every set of open exits (A's graph is the
+    mesh's: the exits only change its diagonal). Restricted to an envelope it orders that envelope's
+    factorisation: the separators of the mesh, restricted to a subset of it, separate the subset."""
+
+    def __init__(self):
+        self.rank = None
+
+    def __call__(self, A) -> np.ndarray:
+        if self.rank is None:
+            graph = A.copy()
+            graph.setdiag(0.0)
+            graph.eliminate_zeros()
+            _, rank = pymetis.nested_dissection(pymetis.CSRAdjacency(graph.indptr, graph.indices))
+            self.rank = np.asarray(rank, np.intp)
+        return self.rank
+
+
+class SaturatedSolver:
+    """A_SS x = rhs on the saturated set S, with the kept EnvelopeCholesky or AMG Hierarchy."""
+
+    def __init__(self, A, area, direct_max: int, order: CellOrder, sets, reuse: bool = True):
+        self.A, self.area, self.direct_max, self.order, self.sets, self.reuse = A, area, direct_max, order, sets, reuse
+        self.factor = None      # the kept EnvelopeCholesky
+        self.hierarchy = None   # the kept Hierarchy
+
+    def nested_dissection(self) -> np.ndarray:
+        return self.order(self.A)
+
+    def solve(self, matrix, cells, rhs, x0, info, tol):
+        """A_SS x = rhs on S = cells: factorised up to ``direct_max`` unknowns, else AMG + CG (on the
+        matrix that matrix() builds) to the density tolerance tol from x0. Counts in info."""
+        tic = time.perf_counter()
+        if len(cells) <= self.direct_max:
+            factor = self.factor if self.reuse else None
+            if factor is None or not factor.fits(cells):
+                factor = self.factor = EnvelopeCholesky(self.A, self.envelope(cells), len(cells),
+                                                         self.nested_dissection())
+                info["rebuilds"] += 1
+            info["factorizations"] += factor.prepare(cells)
+            toc = time.perf_counter()
+            info["setup"] += toc - tic
+            x = factor.solve(cells, rhs)
+            info["solve"] += time.perf_counter() - toc
+            return x
+        # An AMG hierarchy is reused only on the same S: one built for a slightly different S
+        # took more CG iterations than its set-up saves (docs/performance.md).
+        K = matrix()
+        self.factor = None  # no longer the factorisation of the last S
+        hierarchy = self.hierarchy if self.reuse else None
+        if hierarchy is None or not np.array_equal(hierarchy.cells, cells):
+            hierarchy = self.hierarchy = Hierarchy(K, cells)
+            info["rebuilds"] += 1
+        toc = time.perf_counter()
+        info["setup"] += toc - tic
+        x, its, _ = pcg(K, rhs, x0, hierarchy.vcycle, self._threshold(K, cells, tol), maxiter=500)
+        info["solve"] += time.perf_counter() - toc
+        info["linear_iterations"] += its
+        return x
+
+    def envelope(self, cells):
+        """`cells` and ENVELOPE_LAYERS layers of their neighbours (sorted): the index set of a factorisation."""
+        mark = self.sets.mark
+        mark[cells] = True
+        front = cells
+        for _ in range(ENVELOPE_LAYERS):
+            neighbours = self.A[front].indices
+            front = np.unique(neighbours[~mark[neighbours]])
+            mark[front] = True
+        envelope = np.flatnonzero(mark)
+        mark[envelope] = False
+        return envelope
+
+    def _threshold(self, K, cells, tol):
+        """Per-row stopping test of CG: |r_K| <= tol |K|, or the round-off of (K x)_K."""
+        area, floor = tol * self.area[cells], ROUNDOFF * K.diagonal()
+        return lambda x: np.maximum(area, floor * max(float(np.abs(x).max()), 1e-300))

@@ -1,0 +1,170 @@
+"""Initial guesses of the active-set iterations: the saturated set S and phi of the next step.
+
+A dense crowd moves the front of the saturated zone by several cells per step, while an
+active-set iteration adds one layer. Two guesses carry it further (only the guess changes:
+the exact iterations that follow decide, docs/performance.md has the measured effect):
+
+- :meth:`WarmStart.predict`, when a factorisation of the last S is kept: alternating Schwarz
+  between the factorised set (one substitution with the kept factor) and the band of cells
+  around the moving front (local active-set iterations with small sparse solves);
+- :meth:`WarmStart.spill` otherwise, and after iterations that only grow S: the overflow of the
+  cells that join S is spread to the next ones (a few sweeps of a divisible sandpile, the
+  deterministic version of the seeds' random walks).
+"""
+
+import numpy as np
+
+from ...linalg.cholmod import solve_spd
+from .sets import adjacency_table, product
+
+#: sweeps of the overflow spread (spill), applied to at most MAX_SPILLS growing updates per step (a cap:
+#: after it the plain active-set iteration, monotone for an M-matrix, finishes the step)
+SPILL_SWEEPS = 8
+MAX_SPILLS = 16
+#: the predictor: layers of cells of S around the cells that join it (outside the factorised set) in the
+#: band of the local solves, and global corrections (substitutions with the kept factor) after the first pass
+FRONT_LAYERS = 8
+PREDICTOR_ROUNDS = 1
+#: local active-set iterations per round of the predictor (a cap)
+MAX_LOCAL = 10
+#: the predictor is used from this size of the last S: below it its fixed cost (numpy calls, a small CHOLMOD
+#: solve per local iteration) exceeds the factorisations it saves
+PREDICT_MIN = 10_000
+
+
+class WarmStart:
+    """The last step's S and phi, and the two ways of guessing the next ones from them."""
+
+    def __init__(self, A, area, tol, sets, solver, gauge):
+        self.A, self.area, self.tol, self.sets, self.solver, self.gauge = A, area, tol, sets, solver, gauge
+        self.adjacent = adjacency_table(A)
+        self.active = np.zeros(0, np.intp)  # S of the last step (sorted cells)
+        self.phi_active = np.zeros(0)       # phi on it
+
+    def remember(self, S, phi_S):
+        self.active, self.phi_active = S, phi_S
+
+    def forget(self):
+        self.active, self.phi_active = np.zeros(0, np.intp), np.zeros(0)
+
+    def can_predict(self) -> bool:
+        return len(self.active) >= PREDICT_MIN and self.solver.factor is not None
+
+    def first_update(self, over, b, strict, next_set):
+        """Without the predictor: S = the cells over 1 and the last S, phi carried over; when there was a
+        last S, one active-set update with its phi (no solve) followed by a spill. Returns S, phi_S and
+        whether the update was made."""
+        S = self.sets.union(over, self.active)
+        x0 = self.sets.carry(self.active, self.phi_active, S)
+        if not self.active.size:
+            return S, x0, False
+        rows = self.A[S]
+        L, col, in_S, s_in_L = self.sets.neighbourhood(rows, S)
+        w = b[L] + product(rows, col, len(L), x0)
+        new = self.spill(S, next_set(S, x0, w, strict, L, in_S, s_in_L), b, L, w)
+        return new, self.sets.carry(S, x0, new), True
+
+    def predict(self, b, strict, info):
+        """S and phi of this step, guessed from the kept factorisation without a new one.
+
+        Alternating Schwarz on the complementarity problem between two overlapping sets of cells:
+        - the factorised set G (the last S, but for the cells that were bordered):
+          phi_G = A_GG^{-1} (-b - A phi_{off G})_G, one substitution with the kept factor;
+        - the band B, the cells of S within FRONT_LAYERS layers of those in S outside G or next
+          to a cell that left it: local active-set iterations S <- {phi >= 0 on S} U {w < 0 off S}
+          (w = b + A phi, re-evaluated where phi changed), each followed by
+          phi_B = A_BB^{-1} (-b - A phi_{off B})_B, a sparse Cholesky solve of a few thousand unknowns.
+        The band solves carry the overflow of the cells that join to the cells it fills, many
+        layers deep, where each exact iteration adds one layer; the solve on G then brings the far field.
+        """
+        A, factor, n = self.A, self.solver.factor, len(b)
+        G = factor.factorised()
+        in_G = np.zeros(n, bool)
+        in_G[G] = True
+        inside = in_G.copy()  # S as a mask
+        inside[strict] = True
+        touched = strict      # every cell that has been in S outside G, or in G outside S
+        phi = np.zeros(n)
+        threshold = -self.tol * self.area
+        for _ in range(PREDICTOR_ROUNDS + 1):
+            phi[G] += factor.solve(G, -(b + A @ phi)[G])
+            phi[~inside] = 0.0
+            region, w = slice(None), b + A @ phi
+            for _ in range(MAX_LOCAL):
+                flips = np.where(inside[region], phi[region] < 0, w < threshold[region])
+                flips = np.flatnonzero(flips) if isinstance(region, slice) else region[flips]
+                if not flips.size:
+                    break
+                inside[flips] = ~inside[flips]
+                phi[flips] = 0.0  # the cells that leave; those that join start from 0
+                touched = self.sets.distinct(np.concatenate([touched, flips]))
+                band = self._band(touched[inside[touched] != in_G[touched]], inside)
+                phi[band] += solve_spd(A[band][:, band], -(b[band] + A[band] @ phi),
+                                       self.solver.nested_dissection()[band])
+                info["band_solves"] += 1
+                region = self.sets.distinct(A[band].indices)  # where w and the signs of phi can have changed
+                w = b[region] + A[region] @ phi
+        S = np.flatnonzero(inside)
+        return S, phi[S]
+
+    def _band(self, changed, inside):
+        """The cells of S (mask inside) within FRONT_LAYERS layers of the cells `changed` (those in S
+        outside G and the neighbours in S of those in G outside S), but the gauge cells of closed rooms
+        (so that the band solves are never singular)."""
+        near = np.concatenate([changed, self.adjacent[changed].ravel()])
+        front = self.sets.distinct(near[inside[near]])
+        mark = self.sets.mark
+        mark[front] = True
+        band = [front]
+        for _ in range(FRONT_LAYERS):
+            neighbours = self.adjacent[front].ravel()
+            front = self.sets.distinct(neighbours[inside[neighbours] & ~mark[neighbours]])
+            mark[front] = True
+            band.append(front)
+        band = np.concatenate(band)
+        mark[band] = False
+        return band[~self.gauge[band]]
+
+    def spill(self, S, new, b, L, w):
+        """The next S guessed by spreading the overflow -w of the cells that join S, and the residual
+        -w that the guessed phi leaves in S, outwards (divisible sandpile).
+
+        Each cell with an overflow passes it to its neighbours outside S in proportion to the
+        transmissibilities (a cell with none, to its other neighbours), and those it overfills
+        join too (SPILL_SWEEPS sweeps). At a warm start the residual left in S is the capacity
+        that the cells that joined at the last step used up.
+        """
+        level = b.copy()            # w of every cell with phi = 0 outside L
+        level[L] = w
+        inside = self.sets.mark
+        inside[S] = True
+        joining = new[~inside[new]]
+        inside[new] = True
+        front = np.concatenate([joining, S[level[S] < -self.tol * self.area[S]]])
+        added = [joining]
+        for _ in range(SPILL_SWEEPS):
+            front = front[level[front] < -self.tol * self.area[front]]
+            if not front.size:
+                break
+            rows = self.A[front]
+            row = np.repeat(np.arange(len(front)), np.diff(rows.indptr))
+            neighbour = rows.indices != front[row]
+            out = ~inside[rows.indices]
+            # to the neighbours outside the set; a cell with none (second layer) passes to its others
+            closed = np.bincount(row, out, len(front)) == 0
+            receives = neighbour & (out | closed[row])
+            weight = np.where(receives, -rows.data, 0.0)
+            total = np.bincount(row, weight, len(front))
+            share = weight * (-level[front] / np.where(total > 0, total, 1.0))[row]
+            np.subtract.at(level, rows.indices[receives], share[receives])
+            level[front] = 0.0
+            targets = np.unique(rows.indices[receives])
+            front = targets[level[targets] < -self.tol * self.area[targets]]
+            joining = front[~inside[front]]
+            inside[joining] = True
+            added.append(joining)
+        inside[S] = False
+        inside[new] = False
+        grown = np.concatenate(added[1:]) if len(added) > 1 else added[0][:0]
+        inside[grown] = False
+        return self.sets.union(new, grown) if grown.size else new

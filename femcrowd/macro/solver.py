@@ -1,0 +1,117 @@
+"""The macroscopic solver: one catching-up step, prediction + correction (design note, sec. 2;
+Maury, Roudneff-Chupin, Santambrogio 2010).
+
+    rho~      = transport of each population rho_i^n by its U_i over tau   (transport/)
+    rho^{n+1} = projection of the total rho~ onto {rho <= 1}               (projection/, phi = tau p)
+    u^{n+1}   = U - grad p                                                  (reconstruction.py, for output)
+
+on the exits open at t^n (mesh/boundary.py). Densities are in units of rho_max (rho = 1 is
+saturation); the driver converts to and from the user's unit. Hooks run before the prediction
+(sources) and after the correction (measurements).
+"""
+
+import time
+from collections import defaultdict
+
+import numpy as np
+
+from .projection import CellOrder, Projection
+from .reconstruction import actual_velocity
+from .state import MacroState
+from .transport import TRANSPORTS
+
+
+class MacroSolver:
+    """Catching-up steps of a MacroState (PyClaw's Solver), with the operators of each set of open exits
+    built once: the Laplacian's projection and the transport (rebuilt every step for a U that depends on
+    t); ``before_step`` hooks f(solver, state, dt), ``after_step`` hooks f(solver, state, info)."""
+
+    def __init__(self, domain, boundary, velocities, transport="upwind", cfl=0.5, dt=None,
+                 direct_max=1_000_000, tol=1e-12):
+        """velocities: the desired velocity of each population (femcrowd.macro.velocity)."""
+        self.domain, self.boundary, self.velocities = domain, boundary, list(velocities)
+        self.transport_class = TRANSPORTS[transport]
+        self.cfl, self.fixed_dt = cfl, dt
+        self.direct_max, self.tol = direct_max, tol
+        self.order = CellOrder()  # one nested-dissection order for the projections of every set of exits
+        self.before_step, self.after_step = [], []
+        self.timers = defaultdict(float)
+        self._projections = {}    # per set of open exits: (Projection, outflow matrix of the pressure flux)
+        self._transports = None   # (exits, t, one transport per population)
+
+    def transports(self, state: MacroState, exits) -> list:
+        """The transport of each population at the state's time, on these exits."""
+        steady = all(v.steady for v in self.velocities)
+        built = self._transports
+        if built is None or built[0] is not exits or (not steady and built[1] != state.t):
+            schemes = [self.transport_class(self.domain, exits, v.normal_on_facets(state, exits))
+                       for v in self.velocities]
+            self._transports = built = (exits, state.t, schemes)
+        return built[2]
+
+    def projection(self, exits):
+        """The projection onto {rho <= 1} with these exits (Dirichlet) and the matrix (exits x cells)
+        of the pressure outflow through them, built once per set of open exits."""
+        if exits.open not in self._projections:
+            projection = Projection(self.domain, exits, self.direct_max, self.tol, order=self.order)
+            self._projections[exits.open] = (projection, exits.outflow_matrix(exits.transmissibility))
+        return self._projections[exits.open]
+
+    def stable_dt(self, state: MacroState) -> float:
+        """Largest step allowed: cfl * (CFL-1 step of the upwind scheme), or the fixed dt.
+
+        A fixed dt is checked against the CFL limit at setup; it is still capped here
+        (at the transport's own max_cfl) because a time-dependent U can lower the limit
+        during the run, and beyond it the upwind update has negative coefficients
+        (negative densities, lost mass).
+        """
+        schemes = self.transports(state, self.boundary.at(state.t))
+        max_dt = min(s.max_dt for s in schemes)
+        if self.fixed_dt is None:
+            return self.cfl * max_dt
+        return min(self.fixed_dt, min(s.max_cfl * s.max_dt for s in schemes))
+
+    def step(self, state: MacroState, until: float = np.inf) -> dict:
+        """Advance the state by one step, not beyond time ``until``; return the step's diagnostics
+        (dt, active_set_iterations, linear_residual, unknowns, step_seconds, the projection's info)."""
+        tic = time.perf_counter()
+        exits = self.boundary.at(state.t)
+        schemes = self.transports(state, exits)
+        dt = self.stable_dt(state)
+        t_new = state.t + dt
+        if t_new >= until:
+            dt, t_new = until - state.t, until
+        for hook in self.before_step:
+            hook(self, state, dt)
+        rho_tilde = np.empty_like(state.rho)
+        outflow = np.zeros_like(state.evacuated)
+        for i, scheme in enumerate(schemes):
+            rho_tilde[i], outflow[i] = scheme.step(state.rho[i], dt)
+        toc = time.perf_counter()
+        projection, pressure_outflow = self.projection(exits)
+        flux, info = projection(rho_tilde[0] if len(rho_tilde) == 1 else rho_tilde.sum(axis=0))
+        state.rho = self._correct(rho_tilde, flux)
+        outflow[0] += pressure_outflow @ flux.phi
+        self.timers["transport"] += toc - tic
+        self.timers["projection"] += time.perf_counter() - toc
+        state.p = flux.phi / dt
+        state.evacuated += outflow
+        state.t = t_new
+        state.steps += 1
+        result = {"dt": dt, "active_set_iterations": info["iterations"], "linear_residual": info["linear_residual"],
+                  "unknowns": info["unknowns"], "projection": info, "flux": flux}
+        for hook in self.after_step:
+            hook(self, state, result)
+        result["step_seconds"] = time.perf_counter() - tic
+        return result
+
+    def _correct(self, rho_tilde, flux):
+        """rho^{n+1} from rho~ and the pressure flux (one population: rho~ - (A phi) / |K|)."""
+        if len(rho_tilde) != 1:
+            raise NotImplementedError("the correction of several populations")
+        return flux.apply(rho_tilde[0], self.domain.area)[None]
+
+    def velocity_field(self, state: MacroState) -> np.ndarray:
+        """Actual velocity u = U - grad p per cell (of the first population's U)."""
+        exits = self.boundary.at(state.t)
+        return actual_velocity(self.domain, exits, self.velocities[0].normal_on_facets(state, exits), state.p)

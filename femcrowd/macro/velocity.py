@@ -1,0 +1,99 @@
+"""Desired velocity U (design note, sec. 3): what each population would do alone.
+
+Every kind offers the same interface, evaluated for a state (its time t, and its density
+for a speed that depends on it) and the exits open at that time:
+
+- ``normal_on_facets(state, exits)``: (2, F) U . n on each facet seen from f2t[0] and from
+  f2t[1] (n oriented f2t[0] -> f2t[1]), what the transport needs;
+- ``at_cells(state, exits)``: (n, 2) per cell, for output;
+- ``at_points(xy, t, exits)``: (m, 2) at points, for the discs of the micro model;
+- ``steady``: True when U changes only with the open exits (the transport is then built once
+  per set of open exits).
+
+Two kinds, chosen by ``[velocity].type``:
+
+- ``field``: U = (ux, uy), expressions in x, y, t. The transport uses U . n at facet
+  midpoints; no distance field is computed.
+- ``exits``: U = -v grad d / |grad d|, with d the shortest-path distance inside the domain
+  to the nearest open exit (nodal, :func:`femcrowd.mesh.distance.exit_distance`, computed
+  once per set of open exits) and grad d the P1 gradient per triangle; each facet has the
+  normal velocity of each of its two cells (flux splitting, see transport/upwind.py). Where
+  d is infinite (no path to any exit) or grad d vanishes, U = 0: people who cannot reach an
+  exit stay where they are (but are still pushed by the pressure if their region is saturated).
+"""
+
+import numpy as np
+
+from ..mesh.distance import exit_distance
+
+
+class FieldVelocity:
+    """U given by expressions ux(x, y, t), uy(x, y, t)."""
+
+    def __init__(self, domain, ux, uy):
+        self.domain, self.ux, self.uy = domain, ux, uy
+        self.steady = not (ux.depends_on_time or uy.depends_on_time)
+
+    def at_points(self, xy, t=0.0, exits=None):
+        return np.column_stack([self.ux(xy[:, 0], xy[:, 1], t), self.uy(xy[:, 0], xy[:, 1], t)])
+
+    def at_cells(self, state, exits=None):
+        return self.at_points(self.domain.centroid, state.t)
+
+    def normal_on_facets(self, state, exits=None):
+        """(2, F): U(m_e) . n_e, the same seen from both cells of the facet."""
+        a = np.einsum("ij,ij->i", self.at_points(self.domain.midpoint, state.t), self.domain.normal)
+        return np.stack([a, a])
+
+
+class ExitsVelocity:
+    """U = -speed grad d/|grad d| from the distance d to the open exits (one field per set of open exits)."""
+
+    steady = True
+
+    def __init__(self, domain, speed):
+        self.domain = domain
+        self.speed = speed(domain.centroid[:, 0], domain.centroid[:, 1], 0.0)
+        self._cells = {}  # per set of open exits
+        self.distance = {}
+
+    def cells(self, exits) -> np.ndarray:
+        """U per cell for these open exits (the distance field is computed on first use)."""
+        if exits.open not in self._cells:
+            d = self.distance[exits.open] = exit_distance(self.domain.points, self.domain.triangles, exits.edges())
+            grad = _p1_gradient(self.domain, d)
+            norm = np.hypot(grad[:, 0], grad[:, 1])
+            ok = np.isfinite(norm) & (norm > 0)
+            cells = np.zeros((self.domain.ncells, 2))
+            cells[ok] = -(self.speed[ok] / norm[ok])[:, None] * grad[ok]
+            self._cells[exits.open] = cells
+        return self._cells[exits.open]
+
+    def at_cells(self, state, exits):
+        return self.cells(exits)
+
+    def at_points(self, xy, t, exits):
+        """U of the triangle containing each point (0 outside the mesh)."""
+        cell = self.domain.locate(xy)
+        return np.where((cell >= 0)[:, None], self.cells(exits)[np.maximum(cell, 0)], 0.0)
+
+    def normal_on_facets(self, state, exits):
+        """(2, F): U_K . n_e for K = f2t[0] and K = f2t[1] (f2t[0] again on the boundary)."""
+        k0, k1 = self.domain.f2t
+        n, cells = self.domain.normal, self.cells(exits)
+        return np.stack([np.einsum("ij,ij->i", cells[k], n) for k in (k0, np.where(k1 >= 0, k1, k0))])
+
+
+def _p1_gradient(domain, d):
+    """Gradient per triangle of the P1 interpolant of nodal values d (inf where any node is inf)."""
+    p, t = domain.points, domain.triangles
+    e1, e2 = p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]
+    with np.errstate(invalid="ignore"):
+        d1, d2 = d[t[:, 1]] - d[t[:, 0]], d[t[:, 2]] - d[t[:, 0]]
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    gx = (d1 * e2[:, 1] - d2 * e1[:, 1]) / det
+    gy = (d2 * e1[:, 0] - d1 * e2[:, 0]) / det
+    bad = ~np.all(np.isfinite(d[t]), axis=1)
+    g = np.column_stack([gx, gy])
+    g[bad] = np.inf
+    return g

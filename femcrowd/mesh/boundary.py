@@ -1,0 +1,92 @@
+"""Boundary conditions as time-dependent data: which exits are open at t.
+
+An exit lets people out (upwind outflow, p = 0: Dirichlet for the pressure);
+a closed exit is a wall (no flux, Neumann). Everything that depends on the
+exits - the Laplacian, its closed rooms, the distance field, the outflow
+matrices - depends only on the set of open exits, so :class:`Boundary` hands
+out one :class:`Exits` object per set and the solvers cache what they build
+on it (design note, sec. 6, "Door schedules").
+"""
+
+import numpy as np
+import scipy.sparse as sp
+
+from .domain import Domain
+
+
+class Exits:
+    """The exits open at some time: facet masks, the Laplacian with these Dirichlet facets, outflows.
+
+    ``names`` are all the exits of the case (the evacuated_<name> columns, open or not);
+    ``group[e]`` is the index in ``names`` of the open exit that facet e belongs to (a facet
+    counts once, in its first group), -1 for interior facets, walls and closed exits.
+    """
+
+    def __init__(self, domain: Domain, open_names):
+        self.domain = domain
+        self.names = list(domain.exit_group)
+        self.open = tuple(name for name in self.names if name in set(open_names))
+        self.group = np.full(len(domain.length), -1)
+        for g, name in reversed(list(enumerate(self.names))):
+            if name in self.open:
+                self.group[domain.exit_group[name]] = g
+        self.exit = self.group >= 0
+        self.wall = ~domain.interior & ~self.exit
+        self.transmissibility = np.where(self.wall, 0.0, domain.transmissibility)
+        self._laplacian = None
+
+    def any(self) -> bool:
+        """Is any exit open?"""
+        return bool(self.exit.any())
+
+    def laplacian(self) -> sp.csr_matrix:
+        """The two-point (negative) Laplacian A (M-matrix, CSR): (A phi)_K = sum_e T_e (phi_K - phi_L),
+        with phi_L = 0 across open exits and no flux across walls (built once per set of open exits)."""
+        if self._laplacian is None:
+            d = self.domain
+            f = ~self.wall
+            k0, k1, T = d.f2t[0][f], d.f2t[1][f], self.transmissibility[f]
+            inner = k1 >= 0
+            rows = np.concatenate([k0, k1[inner], k0[inner], k1[inner]])
+            cols = np.concatenate([k0, k1[inner], k1[inner], k0[inner]])
+            vals = np.concatenate([T, T[inner], -T[inner], -T[inner]])
+            self._laplacian = sp.csr_matrix((vals, (rows, cols)), shape=(d.ncells, d.ncells))
+        return self._laplacian
+
+    def outflow_matrix(self, weights: np.ndarray) -> sp.csr_matrix:
+        """Sparse (exits x cells) matrix: row g sums weights_e * value_K(e) over the facets e of exit g."""
+        e = np.flatnonzero(self.exit)
+        return sp.csr_matrix((weights[e], (self.group[e], self.domain.f2t[0][e])),
+                             shape=(len(self.names), self.domain.ncells))
+
+    def edges(self) -> np.ndarray:
+        """Node pairs (E, 2) of the open exit facets (the sources of the distance field)."""
+        return self.domain.mesh.facets[:, self.exit].T
+
+    def segments(self, which: str) -> np.ndarray:
+        """Segments (n, 2, 2) of the 'wall' or 'exit' facets (for the disc model and pictures)."""
+        mask = self.wall if which == "wall" else self.exit
+        return self.domain.points[self.domain.mesh.facets[:, mask].T]
+
+
+class Boundary:
+    """The exits of a domain over time: ``at(t)`` is the :class:`Exits` open at t, one object per set.
+
+    Every exit is always open for now; the door schedules of a case will choose the set here.
+    """
+
+    def __init__(self, domain: Domain):
+        self.domain = domain
+        self._cache = {}
+        self.always = self.exits(domain.exit_names)
+
+    def exits(self, open_names) -> Exits:
+        """The Exits object of a set of open exits (built once per set)."""
+        key = frozenset(open_names)
+        if key not in self._cache:
+            self._cache[key] = Exits(self.domain, key)
+        return self._cache[key]
+
+    def at(self, t: float) -> Exits:
+        """The exits open at time t."""
+        return self.always

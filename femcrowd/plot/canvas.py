@@ -1,0 +1,162 @@
+"""An offscreen top view of a floor plan with one coloured layer (pyvista, EGL: no display needed)."""
+
+import os
+
+import numpy as np
+
+os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")  # before vtk creates a window
+import pyvista as pv  # noqa: E402
+
+pv.OFF_SCREEN = True
+
+BACKGROUND, TEXT = "white", "#202020"
+WALL, EXIT, OBSTACLE, FLOOR = "#6e6e6e", "#00a651", "#bdbdbd", "#ebebe6"
+CMAPS = {"density": "YlOrRd", "pressure": "PuBu"}
+PRESSURE_TITLE = "pressure p (m^2/s)"  # u = U - grad p: p has units of speed x length
+DISC_PRESSURE_TITLE = "pressure: sum of contact multipliers (m/s)"  # u + B^T lambda = U
+
+
+def _lines(segments, z):
+    """Segments (n, 2, 2) as a PolyData of lines at height z."""
+    n = len(segments)
+    points = np.column_stack([segments.reshape(-1, 2), np.full(2 * n, z)])
+    return pv.PolyData(points, lines=np.column_stack([np.full(n, 2), 2 * np.arange(n), 2 * np.arange(n) + 1]))
+
+
+class Canvas:
+    """An offscreen top view of the floor plan with one coloured layer, a colour bar and a title.
+
+    Layout in pixels: title band on top, colour bar band at the bottom, the
+    floor plan in between at a uniform scale (parallel projection).
+    """
+
+    TOP, BOTTOM, MARGIN = 70, 100, 24
+
+    def __init__(self, bounds, walls, exits, labels, floor, width):
+        (x0, x1), (y0, y1) = bounds
+        dx, dy = max(x1 - x0, 1e-12), max(y1 - y0, 1e-12)
+        scale = min((width - 2 * self.MARGIN) / dx, 0.8 * width / dy)  # pixels per metre
+        height = int(round(dy * scale)) + self.TOP + self.BOTTOM + 2 * self.MARGIN
+        height += height % 2  # even sizes keep video encoders happy
+        self.width, self.height = width, height
+        self.plotter = p = pv.Plotter(off_screen=True, window_size=(width, height))
+        p.set_background(BACKGROUND)
+        size = max(dx, dy)
+        if floor is not None:
+            # under-plate: the bounding box in light grey, seen through the holes (obstacles);
+            # the floor on it is seen where no coloured layer covers it (discs)
+            plate = pv.Plane(center=((x0 + x1) / 2, (y0 + y1) / 2, -1e-3 * size), direction=(0, 0, 1),
+                             i_size=dx, j_size=dy, i_resolution=1, j_resolution=1)
+            p.add_mesh(plate, color=OBSTACLE, lighting=False)
+            p.add_mesh(floor.translate((0, 0, -5e-4 * size)), color=FLOOR, lighting=False)
+        for segments, colour, z, line in [(walls, WALL, 1e-3, width / 300), (exits, EXIT, 2e-3, width / 120)]:
+            if len(segments):  # tubes: round joints, no gaps between segments
+                p.add_mesh(_lines(segments, z * size), color=colour, line_width=max(2, line),
+                           render_lines_as_tubes=True, lighting=False)
+        for name, middle, normal in labels if len(labels) > 1 else ():  # name the exits when there are several
+            inward = middle - normal * 14 / scale
+            across = abs(normal[0]) > abs(normal[1])
+            p.add_point_labels([[*inward, 3e-3 * size]], [name], font_size=max(8, width // 60), text_color=EXIT,
+                               bold=True, shape=None, background_color="white", background_opacity=0.8,
+                               show_points=False, always_visible=True,
+                               justification_horizontal=("right" if normal[0] > 0 else "left") if across else "center",
+                               justification_vertical="center" if across else ("top" if normal[1] > 0 else "bottom"))
+        self.text = p.add_text("", position=(self.MARGIN, height - self.TOP + 6), font_size=max(10, width // 75),
+                               color=TEXT)
+        self.layer = self.outline = None
+        camera = p.camera
+        camera.parallel_projection = True
+        world_height = height / scale
+        centre_y = (y0 + y1) / 2 + (height / 2 - (self.BOTTOM + self.MARGIN + dy * scale / 2)) / scale
+        camera.focal_point = ((x0 + x1) / 2, centre_y, 0.0)
+        camera.position = ((x0 + x1) / 2, centre_y, 10 * size)
+        camera.up = (0, 1, 0)
+        camera.parallel_scale = world_height / 2
+        p.renderer.ResetCameraClippingRange()
+
+    def show(self, mesh, name, clim, cmap, bar_title):
+        """Colour ``mesh`` by its array ``name`` (first call adds the layer, later calls replace its data)."""
+        if self.layer is None:
+            w, h, bar_height = self.width, self.height, 50
+            bar = dict(title=bar_title, vertical=False, n_labels=tick_count(clim[1]), fmt="%.3g", color=TEXT,
+                       position_x=0.2, width=0.6, position_y=8 / h, height=bar_height / h,
+                       label_font_size=max(10, w // 45), unconstrained_font_size=True)
+            self.layer = self.plotter.add_mesh(mesh, scalars=name, clim=clim, cmap=cmap, lighting=False,
+                                               scalar_bar_args=bar, interpolate_before_map=False)
+            # VTK lays the bar title over the labels: labels go below the bar, the title is our own text
+            scalar_bar = self.plotter.scalar_bars[bar_title]
+            scalar_bar.SetTitle("")
+            scalar_bar.SetTextPositionToPrecedeScalarBar()
+            scalar_bar.SetBarRatio(0.45)
+            title = self.plotter.add_text(bar_title, position=(w / 2, 8 + bar_height + 6),
+                                          font_size=max(9, w // 90), color=TEXT)
+            title.prop.justification_horizontal = "center"
+        else:
+            self.layer.mapper.dataset = mesh
+            self.layer.mapper.SetScalarRange(*clim)
+
+    def show_discs(self, frame, clim):
+        """Discs of a micro frame coloured by their pressure, with outlines (none: the room is empty)."""
+        if self.outline is not None:
+            self.plotter.remove_actor(self.outline)
+            self.outline = None
+        if not frame.n_points:
+            if self.layer is not None:
+                self.layer.SetVisibility(False)
+            return
+        fill, outline = disc_glyphs(frame)
+        self.show(fill, "pressure", clim, CMAPS["pressure"], DISC_PRESSURE_TITLE)
+        self.layer.SetVisibility(True)
+        self.outline = self.plotter.add_mesh(outline, color=TEXT, line_width=1, lighting=False)
+
+    def title(self, text):
+        self.text.input = text
+
+    def image(self):
+        self.plotter.render()
+        return self.plotter.screenshot(return_img=True)
+
+    def save(self, path):
+        self.plotter.render()
+        self.plotter.screenshot(str(path))
+
+    def close(self):
+        self.plotter.close()
+
+
+#: colour-bar maxima (mantissa) and their number of round intervals
+NICE = ((1, 4), (1.2, 4), (1.5, 3), (2, 4), (2.5, 5), (3, 3), (4, 4), (5, 5), (6, 3), (8, 4), (10, 4))
+
+
+def nice_top(value):
+    """The smallest colour-bar maximum >= value with round ticks (1, 1.2, 1.5, 2, 2.5, ... x 10^k)."""
+    if not value > 0:
+        return 1.0
+    unit = 10.0 ** np.floor(np.log10(value))
+    return next(m * unit for m, _ in NICE if m * unit >= value * (1 - 1e-12))
+
+
+def tick_count(top):
+    """Number of colour-bar labels on [0, top]: round steps when top is a nice number, else 5."""
+    mantissa = top / 10.0 ** np.floor(np.log10(top))
+    return next((n + 1 for m, n in NICE if np.isclose(mantissa, m)), 5)
+
+
+def bounds(points):
+    return (points[:, 0].min(), points[:, 0].max()), (points[:, 1].min(), points[:, 1].max())
+
+
+def disc_glyphs(frame):
+    """Disc fill (coloured by pressure) and outlines as glyphs of a unit polygon scaled by the radius."""
+    centres = pv.PolyData(np.asarray(frame.points, float))
+    for name in ("radius", "pressure"):
+        centres.point_data[name] = (np.asarray(frame.point_data[name], float) if name in frame.point_data
+                                    else np.zeros(frame.n_points))
+    unit = pv.Polygon(center=(0, 0, 0), radius=1.0, normal=(0, 0, 1), n_sides=24)
+    fill = centres.glyph(geom=unit.triangulate(), scale="radius", orient=False, factor=1.0)
+    outline = centres.glyph(geom=unit.extract_feature_edges(), scale="radius", orient=False, factor=1.0)
+    return fill, outline
+
+
+def density_title(rho_max):
+    return "density (people/m^2)" if rho_max != 1 else "density (rho / rho_max)"

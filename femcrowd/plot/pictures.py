@@ -1,0 +1,277 @@
+"""Pictures, animation and curves of a run directory (``femcrowd plot OUTDIR``).
+
+Reads what a run wrote: ``solution.pvd`` (macro: cell data density, pressure)
+or ``discs.pvd`` (micro: points with radius, pressure), ``history.csv`` and
+``summary.json``; writes into ``OUTDIR/plots`` (or ``out``):
+
+- ``density_tXXX.png`` and ``pressure_tXXX.png`` at the chosen times (macro),
+  ``discs_tXXX.png`` (micro: discs coloured by their pressure);
+- ``density.gif`` (or ``.mp4`` with imageio-ffmpeg; micro: ``discs.gif``);
+- ``curves.png``: people inside and evacuated, flow rate per exit, max
+  pressure, saturated area (micro: contacts and max overlap) against time.
+
+The floor plan comes from the run's mesh (file and exits recorded in
+summary.json): walls in grey, exits in green, obstacles (holes) filled in
+light grey. When the mesh cannot be found the boundary of the frames is
+drawn, all as walls.
+"""
+
+import importlib.util
+import logging
+from pathlib import Path
+
+import numpy as np
+
+from ..driver.reading import RunDirectory
+from ..errors import InputError
+from ..mesh import Boundary, file_checksum, load_domain
+from .canvas import CMAPS, PRESSURE_TITLE, Canvas, bounds, density_title, nice_top, pv
+
+log = logging.getLogger("femcrowd.plot")
+
+PICTURE_WIDTH, ANIMATION_WIDTH = 1000, 640
+DEFAULT_PICTURES = 4        # default times: evenly spaced until the crowd is down to ...
+PICTURE_REMAINING = 0.05    # ... this fraction of the initial one
+ANIMATION_REMAINING = 0.01  # the animation stops at the first frame below this fraction
+ANIMATION_FRAMES = 80       # at most this many frames (evenly subsampled)
+ANIMATION_SECONDS = 10.0    # target length of the animation
+CURVES_REMAINING = 1e-3     # curves are shown until this fraction of the crowd is left
+
+
+def read(run, stem, k):
+    """Frame k of a run as a pyvista mesh (VTK's own reader: what is rendered)."""
+    return pv.read(run.directory / run.frames[stem][k][1])
+
+
+def floor_plan(run):
+    """walls, exits (segment arrays (n, 2, 2)), exit labels [(name, midpoint, outward normal)] and the
+    floor (triangles, PolyData) from the run's mesh, or None when it cannot be found."""
+    mesh, case = run.summary.get("mesh", {}), run.summary.get("case", {})
+    file = Path(mesh.get("file", ""))
+    if not mesh.get("file") or not file.is_file():
+        log.warning("mesh of the run %s: all boundary edges drawn as walls",
+                    f"not found ({file})" if mesh.get("file") else "unknown (no summary.json)")
+        return None
+    if mesh.get("sha256") and file_checksum(file) != mesh["sha256"]:
+        log.warning("mesh %s changed since the run: walls and exits drawn from its current version", file)
+    domain = load_domain(file, case.get("boundary", {}).get("exits", []),
+                         case.get("mesh", {}).get("refine", 0))
+    labels = [(name, domain.midpoint[f].mean(axis=0), domain.normal[f].mean(axis=0))
+              for name, f in domain.exit_group.items()]
+    floor = pv.PolyData.from_regular_faces(np.column_stack([domain.points, np.zeros(len(domain.points))]),
+                                           domain.triangles)
+    exits = Boundary(domain).at(0.0)
+    return exits.segments("wall"), exits.segments("exit"), labels, floor
+
+
+class FloorPlan:
+    """The floor plan of a run (from its mesh, else from its frames) and its bounds."""
+
+    def __init__(self, run):
+        plan = floor_plan(run)
+        stem = "solution" if "solution" in run.frames else "discs"
+        first = read(run, stem, 0)
+        if plan is None:
+            if stem == "solution":
+                edges = first.extract_feature_edges(boundary_edges=True, feature_edges=False,
+                                                    manifold_edges=False, non_manifold_edges=False)
+                walls = np.asarray(edges.points)[edges.lines.reshape(-1, 3)[:, 1:], :2]
+            else:
+                walls = np.zeros((0, 2, 2))
+            plan = walls, np.zeros((0, 2, 2)), [], first if stem == "solution" else None
+        self.walls, self.exits, self.labels, self.floor = plan
+        points = np.concatenate([self.walls.reshape(-1, 2), self.exits.reshape(-1, 2)])
+        if not len(points):
+            points = np.asarray(first.points)[:, :2]
+        self.bounds = bounds(points)
+
+    def canvas(self, width):
+        return Canvas(self.bounds, self.walls, self.exits, self.labels, self.floor, width)
+
+
+def frame_index(series, times, directory):
+    """Indices of the frames nearest to the given times (each must lie in the frames' time range)."""
+    t = np.array([s[0] for s in series])
+    for value in times:
+        if not t[0] - 1e-9 <= value <= t[-1] + 1e-9:
+            raise InputError(directory, "--times", value,
+                             f"outside the time range of the frames [{t[0]:g}, {t[-1]:g}] s")
+    return sorted({int(np.argmin(np.abs(t - value))) for value in times})
+
+
+def default_times(run, series):
+    """A few evenly spaced times from the start until the crowd is down to PICTURE_REMAINING."""
+    t_end = series[-1][0]
+    t_crowd = run.time_remaining(PICTURE_REMAINING)
+    if t_crowd is not None:
+        t_end = min(t_end, t_crowd)
+    return list(np.linspace(series[0][0], t_end, DEFAULT_PICTURES))
+
+
+def _stamp(t, series):
+    """'t0012.5' for t = 12.5 s: four integer digits and the fewest decimals that write the frame times
+    exactly (but the last, which may end early) and keep them apart: names sort in time order."""
+    times = np.array([s[0] for s in series])
+    decimals = next((d for d in range(7) if np.allclose(np.round(times[:-1], d), times[:-1], rtol=0, atol=1e-9)
+                     and len(np.unique(np.round(times, d))) == len(times)), 6)
+    return f"t{t:0{4 + decimals + (decimals > 0)}.{decimals}f}"
+
+
+def pictures(run, plan, times, out):
+    """density/pressure (macro) and discs (micro) PNGs at the frames nearest to ``times``."""
+    written = []
+    for stem, series in run.frames.items():
+        chosen = frame_index(series, times if times else default_times(run, series), run.directory)
+        frames = [read(run, stem, k) for k in chosen]
+        if stem == "solution":
+            fields = [f for f in ("density", "pressure") if f in frames[0].cell_data]
+            for field in fields:
+                if field == "density":
+                    clim, bar = (0.0, run.rho_max), density_title(run.rho_max)
+                else:
+                    top = max(float(np.max(f.cell_data[field])) for f in frames)
+                    clim, bar = (0.0, nice_top(top)), PRESSURE_TITLE
+                canvas = plan.canvas(PICTURE_WIDTH)
+                for k, frame in zip(chosen, frames):
+                    t = series[k][0]
+                    canvas.show(frame, field, clim, CMAPS[field], bar)
+                    canvas.title(f"{run.title}\n{field} at t = {t:.4g} s")
+                    written.append(out / f"{field}_{_stamp(t, series)}.png")
+                    canvas.save(written[-1])
+                canvas.close()
+        else:
+            written += _disc_pictures(run, plan, series, chosen, frames, out)
+    return written
+
+
+def _disc_range(frames):
+    return 0.0, nice_top(max((float(np.max(f.point_data["pressure"])) for f in frames
+                              if "pressure" in f.point_data and f.n_points), default=0.0))
+
+
+def _disc_pictures(run, plan, series, chosen, frames, out):
+    written, clim = [], _disc_range(frames)
+    canvas = plan.canvas(PICTURE_WIDTH)
+    for k, frame in zip(chosen, frames):
+        t = series[k][0]
+        canvas.show_discs(frame, clim)
+        canvas.title(f"{run.title}\n{frame.n_points} discs at t = {t:.4g} s")
+        written.append(out / f"discs_{_stamp(t, series)}.png")
+        canvas.save(written[-1])
+    canvas.close()
+    return written
+
+
+def animation(run, plan, out, mp4=False, quiet=True):
+    """density.gif (discs.gif for micro runs), or .mp4, with the frames until the crowd is almost gone;
+    returns its path (None without density frames)."""
+    import imageio.v2 as imageio
+    from tqdm import tqdm
+
+    stem = "solution" if "solution" in run.frames else "discs"
+    if stem == "solution" and "density" not in read(run, stem, 0).cell_data:
+        log.warning("no density in the frames ([output].fields): no animation")
+        return None
+    series = run.frames[stem]
+    t = np.array([s[0] for s in series])
+    t_stop = run.time_remaining(ANIMATION_REMAINING)
+    last = int(np.searchsorted(t, t_stop)) if t_stop is not None else len(t) - 1
+    chosen = np.unique(np.round(np.linspace(0, min(last, len(t) - 1),
+                                            min(last + 1, ANIMATION_FRAMES))).astype(int))
+    name = "density" if stem == "solution" else "discs"
+    path = out / f"{name}.{'mp4' if mp4 else 'gif'}"
+    seconds = float(np.clip(ANIMATION_SECONDS / len(chosen), 0.05, 0.5))
+    canvas = plan.canvas(ANIMATION_WIDTH)
+    images = []
+    clim = _disc_range([read(run, stem, k) for k in chosen]) if stem == "discs" else (0.0, run.rho_max)
+    for k in tqdm(chosen, disable=quiet, delay=2.0, desc=f"animation {path.name}", unit="frame"):
+        frame = read(run, stem, k)
+        if stem == "solution":
+            canvas.show(frame, "density", clim, CMAPS["density"], density_title(run.rho_max))
+            canvas.title(f"{run.title}\ndensity at t = {t[k]:.1f} s")
+        else:
+            canvas.show_discs(frame, clim)
+            canvas.title(f"{run.title}\n{frame.n_points} discs at t = {t[k]:.1f} s")
+        images.append(canvas.image())
+    canvas.close()
+    if mp4:
+        imageio.mimwrite(path, images, fps=1.0 / seconds, macro_block_size=2)
+    else:
+        imageio.mimwrite(path, images, duration=1000 * seconds, loop=0)
+    return path
+
+
+def _rate(time, cumulative, width):
+    """Mean rate of a cumulative curve over time bins of about ``width``: (bin centres, rate)."""
+    time, cumulative = np.r_[0.0, time], np.r_[0.0, cumulative]
+    edges = np.linspace(0.0, time[-1], max(1, int(round(time[-1] / width))) + 1)
+    values = np.interp(edges, time, cumulative)
+    return 0.5 * (edges[1:] + edges[:-1]), np.diff(values) / np.diff(edges)
+
+
+def curves(run, out):
+    """curves.png: people inside/evacuated, flow rate per exit, max pressure, saturated area vs time."""
+    from matplotlib.figure import Figure
+
+    h = run.history
+    if not h or not len(h.get("time", ())):
+        log.warning("no history.csv rows in %s: no curves", run.directory)
+        return None
+    t = h["time"]
+    micro = "count" in h
+    unit = "people" if micro or run.rho_max != 1 else "rho_max m^2"
+    t_gone = run.time_remaining(CURVES_REMAINING)
+    t_show = min(t[-1], 1.15 * t_gone) if t_gone else t[-1]
+    fig = Figure(figsize=(11, 7.5), layout="constrained")
+    fig.suptitle(run.title if t_show == t[-1] else
+                 f"{run.title}\n(shown until {100 * (1 - CURVES_REMAINING):g}% have left; "
+                 f"the run goes on to t = {t[-1]:.4g} s)")
+    ax = fig.subplots(2, 2, sharex=True)
+
+    a = ax[0, 0]
+    a.plot(t, h["count" if micro else "mass"], label="inside", color="#d7301f", lw=2)
+    a.plot(t, h["evacuated"], label="evacuated", color="#2b8cbe", lw=2)
+    a.set(ylabel="people" if unit == "people" else f"people ({unit})", title="people inside and evacuated")
+    a.legend()
+
+    a = ax[0, 1]
+    exits = [c for c in h if c.startswith("evacuated_")]
+    width = max(t_show / 80, 2 * float(np.median(np.diff(np.r_[0.0, t]))))  # bins of a few steps at least
+    for column in exits:
+        a.plot(*_rate(t, h[column], width), drawstyle="steps-mid", lw=2, label=column[len("evacuated_"):])
+    if len(exits) != 1:
+        a.plot(*_rate(t, h["evacuated"], width), drawstyle="steps-mid", color="k", lw=1.2,
+               ls="--" if exits else "-", label="all exits")
+    a.set(ylabel=f"flow rate ({unit}/s)", title="exit flow rate")
+    a.legend()
+
+    for a, (column, title, ylabel) in zip(ax[1], [
+            ("contacts", "contacts", "active contacts") if micro else
+            ("max_pressure", "max pressure", "max p (m^2/s)"),
+            ("max_overlap", "max overlap", "overlap (m)") if micro else
+            ("saturated_area", "saturated area (rho = rho_max)", "area (m^2)")]):
+        if column in h:
+            a.plot(t, h[column], color="#54278f", lw=1.5)
+        a.set(title=title, ylabel=ylabel, xlabel="time (s)")
+    for a in ax.flat:
+        a.grid(alpha=0.3)
+        a.set_xlim(0, t_show)
+        a.set_ylim(bottom=0)
+    path = out / "curves.png"
+    fig.savefig(path, dpi=110)
+    return path
+
+
+def plot_run(directory, times=None, animate=True, out=None, mp4=False, quiet=True) -> list:
+    """Write the pictures, animation and curves of a run into out (default: directory/plots); returns
+    the written paths."""
+    run = RunDirectory(directory)
+    if animate and mp4 and importlib.util.find_spec("imageio_ffmpeg") is None:
+        raise InputError(run.directory, "--mp4", True,
+                         "MP4 needs imageio-ffmpeg (pip install imageio-ffmpeg); the default GIF does not")
+    out = Path(out) if out is not None else run.directory / "plots"
+    out.mkdir(parents=True, exist_ok=True)
+    plan = FloorPlan(run)
+    written = pictures(run, plan, times, out)
+    written += [animation(run, plan, out, mp4, quiet) if animate else None, curves(run, out)]
+    return [path for path in written if path is not None]

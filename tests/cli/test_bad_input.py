@@ -1,0 +1,268 @@
+"""Malformed cases and meshes through the real CLI: one line on stderr naming file, key and value,
+exit code 2, no traceback, and a pre-existing output directory left exactly as it was."""
+
+import subprocess
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from femcrowd.cli import main
+from femcrowd.driver.output import MARKER
+
+from ..support import FEMCROWD
+
+
+def msh(nodes, elements, names=()):
+    """A gmsh 2.2 ASCII mesh: nodes [(x, y, z)], elements [(gmsh type, physical tag, node numbers)]."""
+    text = "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n"
+    if names:
+        text += f"$PhysicalNames\n{len(names)}\n" + "".join(f'{d} {t} "{n}"\n' for d, t, n in names)
+        text += "$EndPhysicalNames\n"
+    text += f"$Nodes\n{len(nodes)}\n" + "".join(f"{i + 1} {x} {y} {z}\n" for i, (x, y, z) in enumerate(nodes))
+    text += f"$EndNodes\n$Elements\n{len(elements)}\n"
+    text += "".join(f"{i + 1} {kind} 2 {tag} {tag} {' '.join(map(str, v))}\n"
+                    for i, (kind, tag, v) in enumerate(elements))
+    return text + "$EndElements\n"
+
+
+LINE, TRIANGLE, QUAD, TETRA = 1, 2, 3, 4
+NAMES = [(1, 1, "wall"), (1, 2, "exit"), (1, 3, "door"), (2, 10, "domain")]
+
+
+def grid(n=4, z=lambda x, y: 0.0, quads=False):
+    """Unit square, n x n squares cut into triangles; side x = 0 is "exit", the rest "wall";
+    "door" tags the interior vertical edges at x = 1/2 (not a boundary group)."""
+    number = lambda i, j: j * (n + 1) + i + 1  # noqa: E731
+    nodes = [(i / n, j / n, z(i / n, j / n)) for j in range(n + 1) for i in range(n + 1)]
+    cells = []
+    for i in range(n):
+        for j in range(n):
+            a, b, c, d = number(i, j), number(i + 1, j), number(i + 1, j + 1), number(i, j + 1)
+            cells += [(QUAD, 10, (a, b, c, d))] if quads else [(TRIANGLE, 10, (a, b, c)), (TRIANGLE, 10, (a, c, d))]
+    lines = []
+    for k in range(n):
+        lines += [(LINE, 2, (number(0, k), number(0, k + 1))), (LINE, 1, (number(n, k), number(n, k + 1))),
+                  (LINE, 1, (number(k, 0), number(k + 1, 0))), (LINE, 1, (number(k, n), number(k + 1, n))),
+                  (LINE, 3, (number(n // 2, k), number(n // 2, k + 1)))]
+    return nodes, lines + cells
+
+
+GOOD_MESH = msh(*grid(), NAMES)
+BASE = """title = "tiny room"
+
+[mesh]
+file = "mesh.msh"
+
+[boundary]
+exits = ["exit"]
+
+[velocity]
+type = "exits"
+
+[initial]
+density = 0.5
+
+[time]
+end = 0.1
+
+[output]
+every = 0.1
+"""
+
+
+def edit(old, new):
+    assert old in BASE, old
+    return BASE.replace(old, new)
+
+
+def tet_mesh():
+    nodes = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)]
+    return msh(nodes, [(TETRA, 10, (1, 2, 3, 4))], [(3, 10, "domain")])
+
+
+def nan_mesh():
+    nodes, elements = grid()
+    nodes[6] = (float("nan"), nodes[6][1], 0.0)
+    return msh(nodes, elements, NAMES)
+
+
+def degenerate_mesh():
+    nodes, elements = grid()
+    return msh(nodes, elements + [(TRIANGLE, 10, (1, 2, 3))], NAMES)  # three nodes on y = 0
+
+
+#: id -> (case.toml text, mesh text or bytes, --set overrides, key, value, words of the message)
+BAD = {
+    "missing mesh file": (edit('"mesh.msh"', '"nowhere.msh"'), GOOD_MESH, (), "mesh.file", "nowhere.msh", "not found"),
+    "unknown exit group": (edit('["exit"]', '["exti"]'), GOOD_MESH, (), "boundary.exits", "'exti'",
+                           "did you mean 'exit'"),
+    "exit is a surface group": (edit('["exit"]', '["domain"]'), GOOD_MESH, (), "boundary.exits", "'domain'",
+                                "no boundary group"),
+    "exit made of interior edges": (edit('["exit"]', '["door"]'), GOOD_MESH, (), "boundary.exits", "'door'",
+                                    "contains interior edges"),
+    "unknown key": (edit("end = 0.1", "ende = 0.1"), GOOD_MESH, (), "time.ende", "0.1", "did you mean 'time.end'"),
+    "unknown section": (edit("[time]", "[tyme]"), GOOD_MESH, (), "tyme", "", "did you mean 'time'"),
+    "density above rho_max": (edit("density = 0.5", "density = 1.5"), GOOD_MESH, (), "initial.density", "1.5",
+                              "outside [0, rho_max = 1]"),
+    "negative density": (edit("density = 0.5", 'density = "0.5 - x"'), GOOD_MESH, (), "initial.density",
+                         "0.5 - x", "outside"),
+    "region density out of range": (BASE + "\n[initial.regions]\ndomain = 2.0\n", GOOD_MESH, (),
+                                    "initial.regions.domain", "2.0", "outside"),
+    "non-finite density": (edit("density = 0.5", 'density = "log(x - 5)"'), GOOD_MESH, (), "initial.density",
+                           "log(x - 5)", "non-finite"),
+    "non-finite velocity": (edit('type = "exits"', 'type = "field"\nux = "1 / (x - x)"'), GOOD_MESH, (),
+                            "velocity.ux", "1 / (x - x)", "non-finite"),
+    "attribute access": (edit("density = 0.5", 'density = "x.real"'), GOOD_MESH, (), "initial.density", "x.real",
+                         "not allowed"),
+    "import": (edit("density = 0.5", "density = \"__import__('os').system('echo owned')\""), GOOD_MESH, (),
+               "initial.density", "__import__", "not allowed"),
+    "dunder class": (edit("density = 0.5", 'density = "().__class__"'), GOOD_MESH, (), "initial.density",
+                     "__class__", "not allowed"),
+    "lambda": (edit("density = 0.5", 'density = "(lambda: 1)()"'), GOOD_MESH, (), "initial.density", "lambda",
+               "not allowed"),
+    "subscript": (edit("density = 0.5", 'density = "x[0]"'), GOOD_MESH, (), "initial.density", "x[0]", "not allowed"),
+    "unknown name": (edit("density = 0.5", 'density = "z + 1"'), GOOD_MESH, (), "initial.density", "z + 1",
+                     "unknown name 'z'"),
+    "TOML syntax error": (edit("[time]", "[time"), GOOD_MESH, (), None, None, "TOML syntax error"),
+    "end is a string": (edit("end = 0.1", 'end = "ten"'), GOOD_MESH, (), "time.end", "'ten'", "expected a number"),
+    "exits is a string": (edit('["exit"]', '"exit"'), GOOD_MESH, (), "boundary.exits", "'exit'",
+                          "expected a list of strings"),
+    "refine is a float": (edit("[mesh]", "[mesh]\nrefine = 1.5"), GOOD_MESH, (), "mesh.refine", "1.5",
+                          "expected an integer"),
+    "negative end time": (edit("end = 0.1", "end = -1"), GOOD_MESH, (), "time.end", "-1", "must be in (0"),
+    "cfl = 0": (BASE, GOOD_MESH, ("time.cfl=0",), "time.cfl", "0", "must be in (0, 1]"),
+    "cfl > 1": (BASE, GOOD_MESH, ("time.cfl=1.5",), "time.cfl", "1.5", "must be in (0, 1]"),
+    "dt above the CFL limit": (BASE, GOOD_MESH, ("time.dt=10",), "time.dt", "10", "CFL limit"),
+    "unknown output field": (edit("every = 0.1", 'every = 0.1\nfields = ["dens"]'), GOOD_MESH, (), "output.fields",
+                             "dens", "unknown field"),
+    "rho_max = 0": (BASE + "\n[model]\nrho_max = 0\n", GOOD_MESH, (), "model.rho_max", "0", "must be in (0"),
+    "exits velocity without exits": (edit('["exit"]', "[]"), GOOD_MESH, (), "velocity.type", "exits",
+                                     "needs at least one exit"),
+    "exit speed depends on t": (edit('type = "exits"', 'type = "exits"\nspeed = "1 + t"'), GOOD_MESH, (),
+                                "velocity.speed", "1 + t", "must not depend on t"),
+    "--set without =": (BASE, GOOD_MESH, ("time.end",), "time.end", None, "expected --set section.key=value"),
+    "case file not UTF-8": (b"title = '\xff\xfe'\n", GOOD_MESH, (), None, None, "not a text file"),
+    "3D mesh": (BASE, tet_mesh(), (), "mesh.file", "mesh.msh", "3D mesh"),
+    "3D surface mesh": (BASE, msh(*grid(z=lambda x, y: x * y), NAMES), (), "mesh.file", "mesh.msh", "not planar"),
+    "quads only": (BASE, msh(*grid(quads=True), NAMES), (), "mesh.file", "mesh.msh", "no triangles (only line, quad"),
+    "no boundary names": (BASE, msh(*grid()), (), "boundary.exits", "'exit'", "groups: none"),
+    "empty mesh": (BASE, "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n", (), "mesh.file", "mesh.msh", "no triangles"),
+    "NaN in the mesh": (BASE, nan_mesh(), (), "mesh.file", "mesh.msh", "non-finite node coordinates"),
+    "mesh without triangles": (BASE, msh(grid()[0], [e for e in grid()[1] if e[0] == LINE], NAMES), (),
+                               "mesh.file", "mesh.msh", "no triangles (only line cells)"),
+    "not a mesh file": (BASE, "this is not a mesh\n", (), "mesh.file", "mesh.msh", "cannot read a gmsh .msh"),
+    "zero-area triangle": (BASE, degenerate_mesh(), (), "mesh.file", "mesh.msh", "degenerate"),
+}
+
+
+def write_case(tmp_path, toml, mesh):
+    case = tmp_path / "case"
+    case.mkdir()
+    for name, text in (("case.toml", toml), ("mesh.msh", mesh)):
+        (case / name).write_bytes(text if isinstance(text, bytes) else text.encode())
+    return case
+
+
+def previous_run(tmp_path):
+    """An output directory holding an earlier femcrowd run; returns a snapshot function."""
+    out = tmp_path / "out"
+    out.mkdir()
+    for name, text in ((MARKER, "written by femcrowd\n"), ("summary.json", '{"status": "completed"}\n'),
+                       ("history.csv", "time,mass\n0.1,1.0\n"), ("solution_00000.vtu", "<VTKFile/>\n")):
+        (out / name).write_text(text)
+    return out
+
+
+def snapshot(path):
+    path = Path(path)
+    files = [path] if path.is_file() else sorted(path.rglob("*"))
+    return {str(f): (f.read_bytes(), f.stat().st_mtime_ns) for f in files}
+
+
+def assert_refused(stderr, case_file, key, value, words):
+    lines = stderr.strip().splitlines()
+    assert len(lines) == 1, stderr
+    line = lines[0]
+    assert line.startswith("femcrowd: error: "), line
+    assert "Traceback" not in stderr
+    assert str(case_file) in line, line
+    for part in (key, value, words):
+        if part:
+            assert part in line, f"{part!r} not in {line!r}"
+
+
+def test_the_base_case_runs(tmp_path):
+    """The malformed cases below differ from this one by their single defect."""
+    case = write_case(tmp_path, BASE, GOOD_MESH)
+    result = CliRunner().invoke(main, ["run", str(case), "--out", str(tmp_path / "out"), "-q"])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "out" / "summary.json").is_file()
+
+
+@pytest.mark.parametrize("name", list(BAD))
+def test_bad_input_is_refused_cleanly(tmp_path, name):
+    toml, mesh, overrides, key, value, words = BAD[name]
+    case = write_case(tmp_path, toml, mesh)
+    out = previous_run(tmp_path)
+    before = snapshot(out)
+    args = ["run", str(case), "--out", str(out), "-q"] + [a for o in overrides for a in ("--set", o)]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 2, result.output
+    assert result.stdout == ""
+    assert_refused(result.stderr, case / "case.toml", key, value, words)
+    assert snapshot(out) == before
+
+
+def test_output_dir_that_is_a_file(tmp_path):
+    case = write_case(tmp_path, BASE, GOOD_MESH)
+    out = tmp_path / "results"
+    out.write_text("my notes\n")
+    before = snapshot(out)
+    result = CliRunner().invoke(main, ["run", str(case), "--out", str(out), "-q"])
+    assert result.exit_code == 2
+    assert_refused(result.stderr, case / "case.toml", "output.dir", str(out), "not a directory")
+    assert snapshot(out) == before
+
+
+def test_foreign_output_dir_needs_force(tmp_path):
+    """A directory femcrowd did not write is refused, untouched; --force writes into it (and keeps
+    the foreign file); it stays foreign, so the next run needs --force again."""
+    case = write_case(tmp_path, BASE, GOOD_MESH)
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "notes.txt").write_text("keep me\n")
+    before = snapshot(out)
+    result = CliRunner().invoke(main, ["run", str(case), "--out", str(out), "-q"])
+    assert result.exit_code == 2
+    assert_refused(result.stderr, case / "case.toml", "output.dir", str(out), "--force")
+    assert snapshot(out) == before
+    result = CliRunner().invoke(main, ["run", str(case), "--out", str(out), "-q", "--force"])
+    assert result.exit_code == 0, result.output
+    assert (out / "notes.txt").read_text() == "keep me\n" and (out / "summary.json").is_file()
+    result = CliRunner().invoke(main, ["run", str(case), "--out", str(out), "-q"])
+    assert result.exit_code == 2
+    assert (out / "notes.txt").read_text() == "keep me\n"
+
+
+SUBPROCESS = ["missing mesh file", "3D mesh", "import", "TOML syntax error", "not a mesh file", "cfl > 1"]
+
+
+def test_no_traceback_reaches_the_terminal(tmp_path):
+    """The installed `femcrowd run` (a real process): one line, exit code 2, for a few of the cases."""
+    procs = {}
+    for name in SUBPROCESS:
+        toml, mesh, overrides, *_ = BAD[name]
+        here = tmp_path / name.replace(" ", "_")
+        here.mkdir()
+        case = write_case(here, toml, mesh)
+        args = [str(FEMCROWD), "run", str(case), "--out", str(here / "out"), "-q"]
+        procs[name] = (here, subprocess.Popen(args + [a for o in overrides for a in ("--set", o)],
+                                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True))
+    for name, (here, proc) in procs.items():
+        stdout, stderr = proc.communicate(timeout=120)
+        _, _, _, key, value, words = BAD[name]
+        assert proc.returncode == 2, (name, stderr)
+        assert stdout == "", (name, stdout)
+        assert_refused(stderr, here / "case" / "case.toml", key, value, words)
+        assert not (here / "out").exists()

@@ -1,0 +1,96 @@
+"""Micro cases through the case system, and the micro/macro comparison on the narrow door."""
+
+import numpy as np
+import pytest
+import pyvista
+from click.testing import CliRunner
+
+from femcrowd import load_case, run
+from femcrowd.cli import main
+from femcrowd.errors import InputError
+from femcrowd.studies.compare import compare
+
+from ..support import CASES, read_history
+
+
+def run_micro(case, out):
+    return run(case, out).summary
+
+
+def test_shipped_micro_case_outputs_and_invariants(tmp_path):
+    """The whole shipped micro case: no overlap beyond 1e-9 r at any step, no disc outside."""
+    case = load_case(CASES / "narrow-door-micro", ["output.every=10"])
+    summary = run_micro(case, tmp_path)
+    assert summary["status"] == "completed" and summary["initial_count"] > 50
+    h = read_history(tmp_path / "history.csv")
+    assert {"time", "dt", "count", "evacuated", "contacts", "max_overlap", "solver_iterations",
+            "step_seconds"} <= set(h)
+    assert np.all(h["count"] + h["evacuated"] == summary["initial_count"])   # nobody lost
+    assert np.all(np.diff(h["count"]) <= 0)
+    assert h["max_overlap"].max() <= 1e-9 * 0.2
+    assert summary["discs_outside"] == 0
+    assert h["contacts"].max() > 0                                            # a real jam forms
+    # frames every 10 s, the last one at the end of the run: t = 40 s, or earlier if the
+    # arch at the door gives way (frictionless discs: whether a marginal arch holds depends
+    # on round-off, e.g. the factorisation's ordering, so both outcomes are valid)
+    reader = pyvista.get_reader(str(tmp_path / "discs.pvd"))
+    end = h["time"][-1]
+    assert np.allclose(reader.time_values, [t for t in (0, 10, 20, 30) if t < end - 1e-9] + [min(end, 40.0)])
+    reader.set_active_time_value(reader.time_values[-1])
+    cloud = reader.read()[0]
+    assert cloud.n_points == h["count"][-1]
+    assert {"radius", "velocity", "pressure"} <= set(cloud.point_data.keys())
+    assert np.all(np.asarray(cloud.point_data["pressure"]) >= 0)
+
+
+def test_explicit_discs_from_csv(tmp_path):
+    """Two discs in a row walking to the door: positions from the CSV, both leave."""
+    (tmp_path / "discs.csv").write_text("x,y,r\n6.0,2.5,0.2\n5.0,2.5,0.2\n")
+    case_dir = tmp_path / "case"
+    case_dir.mkdir()
+    mesh = (CASES.parent / "meshes" / "room_narrow_door.msh").resolve()
+    (case_dir / "case.toml").write_text(
+        f'[mesh]\nfile = "{mesh}"\n[boundary]\nexits = ["exit"]\n[model]\ntype = "micro"\n'
+        f'[micro]\npositions = "../discs.csv"\n[time]\nend = 10.0\n')
+    summary = run_micro(load_case(case_dir), tmp_path / "out")
+    assert summary["initial_count"] == 2 and summary["evacuated"] == 2
+    assert summary["evacuation_time"] == pytest.approx(3.0 + 0.2, abs=0.3)  # 3 m at speed 1 (+ one step)
+
+
+def test_csv_with_a_disc_outside_is_refused(tmp_path):
+    (tmp_path / "discs.csv").write_text("x,y,r\n60.0,2.5,0.2\n")
+    mesh = (CASES.parent / "meshes" / "room_narrow_door.msh").resolve()
+    (tmp_path / "case.toml").write_text(
+        f'[mesh]\nfile = "{mesh}"\n[boundary]\nexits = ["exit"]\n[model]\ntype = "micro"\n'
+        f'[micro]\npositions = "discs.csv"\n')
+    with pytest.raises(InputError, match="micro.positions.*outside the domain"):
+        run_micro(load_case(tmp_path), tmp_path / "out")
+    result = CliRunner().invoke(main, ["run", str(tmp_path), "--out", str(tmp_path / "o2")])
+    assert result.exit_code == 2 and "Traceback" not in result.output
+
+
+def test_compare_narrow_door_macro_evacuates_faster(tmp_path):
+    """The findings of Maury et al. (2011) on a narrow door: the discs jam, the macro crowd leaves faster."""
+    case = load_case(CASES / "narrow-door", ["time.end=12", "output.every=1"])
+    result = compare(case, tmp_path, quiet=True, pictures=2)
+    rows = result["rows"]
+    assert rows[0]["macro_inside"] == pytest.approx(rows[0]["micro_inside"])   # same crowd
+    assert result["macro"]["evacuation_time"] is not None and result["macro"]["evacuation_time"] < 12
+    assert rows[-1]["micro_inside"] > 0.25 * rows[0]["micro_inside"]          # jammed at the door
+    assert all(r["macro_inside"] <= r["micro_inside"] + 1e-9 for r in rows)
+    w2 = [r["w2"] for r in rows if r["macro_inside"] > 1 and r["micro_inside"] > 0]
+    assert w2 and all(np.isfinite(w2)) and w2[0] < 0.5                        # same initial crowd
+    for name in ("comparison.csv", "evacuation.png", "macro/solution.pvd", "micro/discs.pvd"):
+        assert (tmp_path / name).is_file()
+    assert len(list(tmp_path.glob("side_by_side_t*.png"))) == 2
+
+
+def test_compare_reads_the_empty_disc_frames_of_a_finished_micro_run(tmp_path):
+    """Frames after the last disc left have no points (meshio cannot decode them): the comparison
+    reads them as an empty crowd, counts 0 people inside and writes its report."""
+    case = load_case(CASES / "narrow-door", ["time.end=6", "output.every=1", "initial.density=0.3 * (x > 7)"])
+    result = compare(case, tmp_path, quiet=True, pictures=2)
+    rows = result["rows"]
+    assert rows[0]["micro_inside"] > 0 and rows[-1]["micro_inside"] == 0   # all out before t = 6
+    assert rows[-1]["macro_inside"] == pytest.approx(0.0, abs=1e-6)
+    assert (tmp_path / "comparison.csv").is_file()

@@ -1,0 +1,156 @@
+"""Floor plans to gmsh meshes: areas, exit groups, bad input, shipped meshes."""
+
+
+import numpy as np
+import pytest
+import skfem
+
+from femcrowd.errors import InputError
+from femcrowd.mesh.floorplan import build_mesh
+
+from ..support import MESHES
+
+ROOM = """
+size = 0.5
+[outer]
+points = [[0, 0], [0, 6], [10, 6], [10, 0]]   # clockwise on purpose
+[[exits]]
+name = "exit"
+from = [10, 2.5]
+to = [10, 3.5]
+size = 0.1
+[[exits]]
+name = "exit"
+from = [0, 6]
+to = [0, 5]
+[[exits]]
+name = "hatch"
+from = [3, 2]
+to = [2.5, 2]
+[[holes]]
+points = [[2, 2], [3, 2], [3, 3]]
+"""
+CIRCLE = '\n[[holes]]\ncircle = { center = [7, 3], radius = 0.5 }\n'
+
+
+def write(tmp_path, text, name="plan.toml"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def areas(m):
+    x = m.p[:, m.t]
+    return 0.5 * np.abs((x[0, 1] - x[0, 0]) * (x[1, 2] - x[1, 0]) - (x[0, 2] - x[0, 0]) * (x[1, 1] - x[1, 0]))
+
+
+def lengths(m):
+    """Total length of each named boundary group."""
+    h = np.linalg.norm(m.p[:, m.facets[1]] - m.p[:, m.facets[0]], axis=0)
+    return {name: h[f].sum() for name, f in m.boundaries.items()}
+
+
+def non_delaunay(m):
+    """Interior edges whose two opposite angles sum to more than pi (cot a + cot b < 0)."""
+    x = m.p[:, m.t]
+    cot = np.zeros(m.facets.shape[1])
+    for k, o in enumerate([2, 0, 1]):  # skfem: facet t2f[k] is opposite vertex o
+        u, v = x[:, (o + 1) % 3] - x[:, o], x[:, (o + 2) % 3] - x[:, o]
+        cot += np.bincount(m.t2f[k], (u * v).sum(0) / np.abs(u[0] * v[1] - u[1] * v[0]), len(cot))
+    return np.count_nonzero(cot[m.f2t[1] >= 0] < -1e-12)
+
+
+def test_polygon_plan(tmp_path):
+    out = build_mesh(write(tmp_path, ROOM))
+    assert out == tmp_path / "plan.msh"
+    assert out.read_text().startswith("$MeshFormat\n2.2")
+    m = skfem.MeshTri.load(out)
+    assert areas(m).sum() == pytest.approx(60 - 0.5, abs=1e-10)
+    length = lengths(m)
+    assert set(length) == {"exit", "hatch", "wall"}
+    assert length["exit"] == pytest.approx(2, abs=1e-12)
+    assert length["hatch"] == pytest.approx(0.5, abs=1e-12)
+    assert length["wall"] == pytest.approx(32 - 2 + 2 + np.sqrt(2) - 0.5, abs=1e-12)
+    exit_facets = m.facets[:, m.boundaries["exit"]]
+    assert np.linalg.norm(np.diff(m.p[:, exit_facets], axis=1), axis=0).min() <= 0.1 + 1e-9
+    assert non_delaunay(m) == 0
+    assert lengths(m.refined(1)) == pytest.approx(length)
+
+
+def test_circle_hole_and_options(tmp_path):
+    out = build_mesh(write(tmp_path, ROOM + CIRCLE), out=tmp_path / "x.msh", refine_exits=0.05)
+    assert out == tmp_path / "x.msh"
+    m = skfem.MeshTri.load(out)
+    # the circle becomes a polygon inscribed in it, with chords of about `size`
+    wall = m.facets[:, m.boundaries["wall"]]
+    a, b = np.swapaxes(m.p[:, wall] - np.array([7, 3])[:, None, None], 0, 1)  # the two ends
+    ring = (np.abs(np.linalg.norm(a, axis=0) - 0.5) < 1e-9) & (np.abs(np.linalg.norm(b, axis=0) - 0.5) < 1e-9)
+    n, hole = np.count_nonzero(ring), 0.5 * np.abs(a[0] * b[1] - a[1] * b[0])[ring].sum()
+    assert areas(m).sum() == pytest.approx(60 - 0.5 - hole, abs=1e-10)
+    assert 0.5 * n * np.sin(2 * np.pi / n) * 0.25 == pytest.approx(hole, abs=1e-12)
+    assert n >= 2 * np.pi * 0.5 / 0.5
+    hatch = m.facets[:, m.boundaries["hatch"]]
+    assert np.linalg.norm(np.diff(m.p[:, hatch], axis=1), axis=0).max() <= 0.05 + 1e-9
+
+
+BAD = {
+    "syntax": ("size = = 1", None, "TOML syntax error"),
+    "unknown": ("sise = 0.1\n[outer]\npoints = [[0,0],[1,0],[0,1]]", "sise", "did you mean 'size'"),
+    "unknown_nested": ("[outer]\npoint = [[0,0],[1,0],[0,1]]", "outer.point", "did you mean 'points'"),
+    "no_outer": ("size = 0.1", "outer", "missing"),
+    "size": ("size = 0\n[outer]\npoints = [[0,0],[1,0],[0,1]]", "size", "positive"),
+    "two_points": ("[outer]\npoints = [[0,0],[1,0]]", "outer.points", "at least 3 points"),
+    "not_points": ("[outer]\npoints = [[0,0],[1,0],[1]]", "outer.points", "[x, y]"),
+    "bowtie": ("[outer]\npoints = [[0,0],[1,1],[1,0],[0,1]]", "outer.points", "intersects itself"),
+    "exit_off": ('[[exits]]\nname = "e"\nfrom = [5, 3]\nto = [5, 4]', "exits[0]", "must lie on one straight edge"),
+    "exit_corner": ('[[exits]]\nname = "e"\nfrom = [9, 0]\nto = [10, 1]', "exits[0]", "must lie on one straight edge"),
+    "exit_name": ('[[exits]]\nname = "wall"\nfrom = [10, 2]\nto = [10, 3]', "exits[0].name", "other than"),
+    "exit_size": ('[[exits]]\nname = "e"\nfrom = [10, 2]\nto = [10, 3]\nsize = -1', "exits[0].size", "positive"),
+    "exits_overlap": ('[[exits]]\nname = "e"\nfrom = [10, 2]\nto = [10, 3]\n'
+                      '[[exits]]\nname = "f"\nfrom = [10, 2.5]\nto = [10, 4]', "exits[1]", "overlaps exits[0]"),
+    "hole_outside": ("[[holes]]\ncircle = { center = [20, 3], radius = 0.5 }", "holes[0]", "strictly inside"),
+    "hole_crosses": ("[[holes]]\ncircle = { center = [9.8, 3], radius = 0.5 }", "holes[0]", "strictly inside"),
+    "hole_touches": ("[[holes]]\npoints = [[8,0],[9,1],[8,1]]", "holes[0]", "strictly inside"),
+    "holes_overlap": ("[[holes]]\ncircle = { center = [5, 3], radius = 0.5 }\n"
+                      "[[holes]]\npoints = [[4,2],[4.8,2],[4.8,3]]", "holes[1]", "overlaps holes[0]"),
+    "hole_in_hole": ("[[holes]]\npoints = [[4,2],[6,2],[6,4],[4,4]]\n"
+                     "[[holes]]\ncircle = { center = [5, 3], radius = 0.5 }", "holes[1]", "overlaps holes[0]"),
+    "holes_table": ("[holes]\npoints = [[1,1],[2,1],[2,2]]", "holes", "array of tables"),
+    "hole_kind": ("[[holes]]\ncircle = { center = [5, 3], radius = 0.5 }\npoints = [[1,1],[2,1],[2,2]]",
+                  "holes[0]", "exactly one"),
+    "radius": ("[[holes]]\ncircle = { center = [5, 3], radius = 0 }", "holes[0].circle.radius", "positive"),
+}
+
+
+@pytest.mark.parametrize("case", BAD)
+def test_bad_geometry(tmp_path, case):
+    text, key, message = BAD[case]
+    if "[outer]" not in text and case not in ("syntax", "no_outer"):
+        text = "[outer]\npoints = [[0,0],[10,0],[10,6],[0,6]]\n" + text
+    path = write(tmp_path, text)
+    with pytest.raises(InputError) as e:
+        build_mesh(path)
+    assert str(e.value).startswith(f"{path}: {key} =" if key else f"{path}:")
+    assert message in str(e.value)
+    assert not path.with_suffix(".msh").exists()
+
+
+SHIPPED = {
+    "room_one_door": {"exit": 1, "wall": 31},
+    "room_obstacles": {"exit": 1, "wall": 31 + 2 * np.pi * 1.6},
+    "two_exits": {"exit_wide": 2, "exit_narrow": 1, "wall": 61},
+    "corridor": {"wall": 9},
+    "square": {"wall": 8},
+    "channel_exit": {"exit": 1, "wall": 5},
+    "square_exits": {"exit": 8},
+}
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_shipped_meshes(name):
+    m = skfem.MeshTri.load(MESHES / f"{name}.msh")
+    assert lengths(m) == pytest.approx(SHIPPED[name], rel=1e-2 if name == "room_obstacles" else 1e-12)
+    assert lengths(m.refined(1)) == pytest.approx(lengths(m))
+    assert non_delaunay(m) == 0
+    # no obtuse triangles (except a few next to the obstacles): refinement keeps Delaunay
+    assert non_delaunay(m.refined(1)) == 0 or name == "room_obstacles"
