@@ -13,6 +13,7 @@ on the command line (``--out``) is relative to the current directory.
 import copy
 import difflib
 import tomllib
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -52,7 +53,11 @@ class Case:
 
 
 def load_case(case_dir, overrides=()) -> Case:
-    """Load CASE_DIR/case.toml (or a .toml file), apply ``--set key=value`` overrides, validate."""
+    """Load CASE_DIR/case.toml (or a .toml file), apply overrides, validate.
+
+    overrides: ``--set`` strings ``["time.end=5", ...]`` (values read as TOML), or a mapping
+    ``{"time.end": 5, ...}`` of dotted keys to values.
+    """
     path = Path(case_dir)
     file = path / "case.toml" if path.is_dir() else path
     if not file.is_file():
@@ -63,8 +68,12 @@ def load_case(case_dir, overrides=()) -> Case:
         raise InputError(file, None, None, f"TOML syntax error: {err}") from None
     except UnicodeDecodeError:
         raise InputError(file, None, None, "not a text file") from None
-    for item in overrides:
-        _apply_override(raw, item, file)
+    if isinstance(overrides, Mapping):
+        items = [(key.split("."), value) for key, value in overrides.items()]
+    else:
+        items = [parse_override(item, file) for item in overrides]
+    for keys, value in items:
+        _apply_override(raw, keys, value, file)
     return Case(_resolve(raw, SCHEMA, file, ""), file.resolve())
 
 
@@ -80,8 +89,7 @@ def parse_override(item, file="--set"):
     return key.strip().split("."), value
 
 
-def _apply_override(raw, item, file):
-    keys, value = parse_override(item, file)
+def _apply_override(raw, keys, value, file):
     table = raw
     for k in keys[:-1]:
         table = table.setdefault(k, {})

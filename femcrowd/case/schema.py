@@ -22,10 +22,12 @@ EXACT_PARAMETERS = sorted({p for cls in SOLUTIONS.values() for p in inspect.sign
 
 @dataclass(frozen=True)
 class Key:
-    """One case key: its default and the check that turns a raw TOML value into a clean one."""
+    """One case key: its default, the check that turns a raw TOML value into a clean one, and what it
+    means (the key's line in docs/case-format.md)."""
 
     default: object
     kind: str
+    doc: str = ""
     choices: tuple = ()
     low: float = -math.inf
     high: float = math.inf
@@ -33,31 +35,74 @@ class Key:
 
 
 SCHEMA = {
-    "title": Key("", "str"),
-    "mesh": {"file": Key(REQUIRED, "str"), "refine": Key(0, "int", low=0, high=8)},
-    "boundary": {"exits": Key([], "strlist")},
-    "model": {"type": Key("macro", "choice", ("macro", "micro")),
-              "rho_max": Key(1.0, "number", low=0, low_open=True)},
-    "velocity": {"type": Key("exits", "choice", ("exits", "field")),
-                 "speed": Key(1.0, "expr"), "ux": Key(0.0, "expr"), "uy": Key(0.0, "expr")},
-    "initial": {"density": Key(0.0, "expr"), "regions": Key({}, "regions")},
-    "time": {"end": Key(10.0, "number", low=0, low_open=True),
-             "cfl": Key(0.5, "number", low=0, high=1.0, low_open=True),
-             "dt": Key(None, "number", low=0, low_open=True),
-             "stop_when_empty": Key(True, "bool"),
-             "empty_fraction": Key(1e-4, "number", low=0, high=1, low_open=True)},
-    "output": {"dir": Key("output", "str"),
-               "every": Key(0.5, "number", low=0, low_open=True),
-               "fields": Key(list(FIELDS), "fields")},
-    "projection": {"direct_max": Key(1_000_000, "int", low=0),
-                   "tol": Key(1e-12, "number", low=0, high=1e-6, low_open=True)},
-    "micro": {"radius": Key(0.2, "radius"), "count": Key(None, "int", low=1),
-              "seed": Key(1, "int"), "positions": Key(None, "str"),
-              "method": Key("exact", "choice", ("exact", "uzawa"))},
-    "scheme": {"transport": Key("upwind", "choice", tuple(TRANSPORTS))},
-    "exact": {"name": Key(None, "choice", tuple(SOLUTIONS)),
-              **{name: Key(None, "number") for name in EXACT_PARAMETERS}},
-    "convergence": {"meshes": Key([], "strlist"), "reference": Key(None, "str")},
+    "title": Key("", "str", "a title for pictures and reports"),
+    "mesh": {
+        "file": Key(REQUIRED, "str", "the gmsh mesh (.msh 2.2 or 4.1), relative to case.toml"),
+        "refine": Key(0, "int", "uniform refinements after loading (convergence studies)", low=0, high=8),
+    },
+    "boundary": {
+        "exits": Key([], "strlist", "the physical line groups that are exits; every other boundary edge is a wall"),
+    },
+    "model": {
+        "type": Key("macro", "choice", '"macro" (a density) or "micro" (rigid discs)', ("macro", "micro")),
+        "rho_max": Key(1.0, "number", "the saturation density, in the unit of the densities of the case "
+                       "(e.g. 5.4 people/m^2)", low=0, low_open=True),
+    },
+    "velocity": {
+        "type": Key("exits", "choice", '"exits": U = -speed grad d / |grad d|, d the walking distance to the '
+                    'nearest exit; "field": U given by ux, uy', ("exits", "field")),
+        "speed": Key(1.0, "expr", "desired speed (m/s) for type exits: a number >= 0 or an expression in x, y"),
+        "ux": Key(0.0, "expr", "x component of U (m/s) for type field: an expression in x, y, t"),
+        "uy": Key(0.0, "expr", "y component of U (m/s) for type field: an expression in x, y, t"),
+    },
+    "initial": {
+        "density": Key(0.0, "expr", "initial density in [0, rho_max]: a number or an expression in x, y"),
+        "regions": Key({}, "regions", "initial density per physical surface group, e.g. { crowd = 0.9 }"),
+    },
+    "time": {
+        "end": Key(10.0, "number", "end time (s)", low=0, low_open=True),
+        "cfl": Key(0.5, "number", "time step as a fraction of the CFL-1 step of the upwind transport "
+                   "(0.5 for muscl and compressive)", low=0, high=1.0, low_open=True),
+        "dt": Key(None, "number", "a fixed time step (s) instead of cfl", low=0, low_open=True),
+        "stop_when_empty": Key(True, "bool", "stop once the crowd has left (scenes with exits)"),
+        "empty_fraction": Key(1e-4, "number", "the crowd has left when less than this fraction of it is inside",
+                              low=0, high=1, low_open=True),
+    },
+    "output": {
+        "dir": Key("output", "str", "output directory, relative to case.toml (--out on the command line "
+                   "is relative to the current directory)"),
+        "every": Key(0.5, "number", "time between frames (s)", low=0, low_open=True),
+        "fields": Key(list(FIELDS), "fields", "the cell fields written in the frames"),
+    },
+    "projection": {
+        "direct_max": Key(1_000_000, "int", "largest saturated set solved by sparse Cholesky (larger: AMG + CG)",
+                          low=0),
+        "tol": Key(1e-12, "number", "density tolerance of iterative solves: rho <= 1 + tol", low=0, high=1e-6,
+                   low_open=True),
+    },
+    "micro": {
+        "radius": Key(0.2, "radius", "disc radius (m), or [min, max] for a polydisperse crowd"),
+        "count": Key(None, "int", "number of discs (default: from the initial density at the hexagonal "
+                     "packing density)", low=1),
+        "seed": Key(1, "int", "seed of the disc sampling"),
+        "positions": Key(None, "str", "a CSV of discs (columns x, y, r) instead of sampling, relative to case.toml"),
+        "method": Key("exact", "choice", "the projection of the velocities: exact, or Uzawa's iteration",
+                      ("exact", "uzawa")),
+    },
+    "scheme": {
+        "transport": Key("upwind", "choice", "the prediction: order-0 upwind; limited linear reconstruction with "
+                         "SSP-RK2 (muscl) or one Euler stage (compressive)", tuple(TRANSPORTS)),
+    },
+    "exact": {
+        "name": Key(None, "choice", "the exact solution of the case, the reference of femcrowd convergence",
+                    tuple(SOLUTIONS)),
+        **{name: Key(None, "number", "a parameter of the exact solution") for name in EXACT_PARAMETERS},
+    },
+    "convergence": {
+        "meshes": Key([], "strlist", "mesh files of a refinement series, instead of mesh.refine"),
+        "reference": Key(None, "str", "a CSV of published error / run-time figures (method, metric, seconds, "
+                         "error) drawn on the plots"),
+    },
 }
 
 

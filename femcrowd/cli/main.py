@@ -70,5 +70,14 @@ def main(verbose):
 
     Run `femcrowd COMMAND --help` for a command's options and examples.
     """
-    logging.basicConfig(level=logging.INFO if verbose else logging.WARNING,
-                        format="%(name)s: %(message)s")
+    log = logging.getLogger("femcrowd")
+    log.handlers[:] = [_EchoHandler()]
+    log.setLevel(logging.INFO if verbose else logging.WARNING)
+    log.propagate = False
+
+
+class _EchoHandler(logging.Handler):
+    """femcrowd's log lines on stderr, through click (so that they go where click's output goes)."""
+
+    def emit(self, record):
+        click.echo(f"{record.name}: {record.getMessage()}", err=True)

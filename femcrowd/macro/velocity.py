@@ -5,7 +5,6 @@ for a speed that depends on it) and the exits open at that time:
 
 - ``normal_on_facets(state, exits)``: (2, F) U . n on each facet seen from f2t[0] and from
   f2t[1] (n oriented f2t[0] -> f2t[1]), what the transport needs;
-- ``at_cells(state, exits)``: (n, 2) per cell, for output;
 - ``at_points(xy, t, exits)``: (m, 2) at points, for the discs of the micro model;
 - ``steady``: True when U changes only with the open exits (the transport is then built once
   per set of open exits).
@@ -37,9 +36,6 @@ class FieldVelocity:
     def at_points(self, xy, t=0.0, exits=None):
         return np.column_stack([self.ux(xy[:, 0], xy[:, 1], t), self.uy(xy[:, 0], xy[:, 1], t)])
 
-    def at_cells(self, state, exits=None):
-        return self.at_points(self.domain.centroid, state.t)
-
     def normal_on_facets(self, state, exits=None):
         """(2, F): U(m_e) . n_e, the same seen from both cells of the facet."""
         a = np.einsum("ij,ij->i", self.at_points(self.domain.midpoint, state.t), self.domain.normal)
@@ -68,9 +64,6 @@ class ExitsVelocity:
             cells[ok] = -(self.speed[ok] / norm[ok])[:, None] * grad[ok]
             self._cells[exits.open] = cells
         return self._cells[exits.open]
-
-    def at_cells(self, state, exits):
-        return self.cells(exits)
 
     def at_points(self, xy, t, exits):
         """U of the triangle containing each point (0 outside the mesh)."""

@@ -56,6 +56,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from .triangles import doubled_areas
+
 __all__ = ["exit_distance"]
 
 #: The iteration stops changing a node when it would decrease by less than this fraction of
@@ -122,8 +124,7 @@ class _Corners:
         x0, x1, x2 = p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
         # edge[:, k] = length of the edge opposite vertex k
         edge = np.stack([np.hypot(*(x2 - x1).T), np.hypot(*(x0 - x2).T), np.hypot(*(x1 - x0).T)], axis=1)
-        u, v = x1 - x0, x2 - x0
-        area2 = np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0])  # twice the area
+        area2 = np.abs(doubled_areas(p, t))
         L = edge.ravel()  # |AB|: edge opposite C
         cb = np.roll(edge, -1, axis=1).ravel()  # |CB| is opposite A
         ca = np.roll(edge, -2, axis=1).ravel()  # |CA| is opposite B

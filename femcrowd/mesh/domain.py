@@ -19,6 +19,7 @@ import numpy as np
 from ..errors import InputError
 from .gmsh_io import read_mesh
 from .locate import PointLocator
+from .triangles import doubled_areas
 
 #: d_e is clipped from below at this fraction of the centroid distance (see _transmissibility).
 CLIP_FRACTION = 0.02
@@ -38,7 +39,7 @@ class Domain:
         self.triangles = np.ascontiguousarray(mesh.t.T)
         p, t = self.points, self.triangles
         a, b, c = p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
-        cross = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+        cross = doubled_areas(p, t)
         self.area = 0.5 * np.abs(cross)
         self.centroid = (a + b + c) / 3.0
         self.circumcentre = _circumcentres(a, b, c, cross)

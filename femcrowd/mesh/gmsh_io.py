@@ -17,6 +17,7 @@ import numpy as np
 import skfem
 
 from ..errors import InputError
+from .triangles import doubled_areas
 
 _SOLID = {"tetra", "hexahedron", "wedge", "pyramid", "tetra10", "hexahedron20", "hexahedron27"}
 
@@ -51,8 +52,7 @@ def read_mesh(path, case_file):
     if points.shape[1] > 2 and np.ptp(points[:, 2]) > 1e-12 * extent:
         fail("the mesh is not planar (z varies); femcrowd needs a 2D mesh")
     mesh = _ordered_mesh(data)
-    x = mesh.p[:, mesh.t]
-    twice_area = np.abs((x[0, 1] - x[0, 0]) * (x[1, 2] - x[1, 0]) - (x[0, 2] - x[0, 0]) * (x[1, 1] - x[1, 0]))
+    twice_area = np.abs(doubled_areas(mesh.p.T, mesh.t.T))
     if np.any(twice_area <= 1e-14 * extent ** 2):  # zero up to the round-off of the coordinates
         fail(f"the mesh has {np.count_nonzero(twice_area <= 1e-14 * extent ** 2)} degenerate (zero-area) triangles")
     return mesh

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ..mesh.triangles import doubled_areas
 from .contacts import WallSet, as_segments
 
 __all__ = ["read_discs_csv", "sample_discs", "target_count", "HEX_PACKING"]
@@ -63,8 +64,7 @@ def _triangle_data(points, triangles):
     P = np.asarray(points, float)[:, :2]
     T = np.asarray(triangles, np.intp)
     a, b, c = P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]
-    area = 0.5 * np.abs((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
-    return a, b, c, area
+    return a, b, c, 0.5 * np.abs(doubled_areas(P, T))
 
 
 def target_count(density, points, triangles, radius, packing: float = HEX_PACKING) -> int:

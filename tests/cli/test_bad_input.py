@@ -141,6 +141,8 @@ BAD = {
                                      "needs at least one exit"),
     "exit speed depends on t": (edit('type = "exits"', 'type = "exits"\nspeed = "1 + t"'), GOOD_MESH, (),
                                 "velocity.speed", "1 + t", "must not depend on t"),
+    "negative exit speed": (edit('type = "exits"', 'type = "exits"\nspeed = "1 - 2 * x"'), GOOD_MESH, (),
+                            "velocity.speed", "1 - 2 * x", "walk away from the exits"),
     "--set without =": (BASE, GOOD_MESH, ("time.end",), "time.end", None, "expected --set section.key=value"),
     "case file not UTF-8": (b"title = '\xff\xfe'\n", GOOD_MESH, (), None, None, "not a text file"),
     "3D mesh": (BASE, tet_mesh(), (), "mesh.file", "mesh.msh", "3D mesh"),

@@ -90,3 +90,23 @@ def test_extreme_oversaturation_keeps_bounds(c):
     rho_tilde = np.where(np.hypot(x[:, 0] - 0.5, x[:, 1] - 0.5) < 0.1, c, 0.0)
     rho, phi, _ = Projection(domain)(rho_tilde)
     check_lcp(domain, rho_tilde, rho, phi)
+
+
+def test_facet_fluxes_are_the_correction():
+    """The pressure flux T_e (phi_K - phi_L) of every facet: summed per cell it is the correction A phi,
+    through the exit facets it is the evacuated mass, through walls nothing."""
+    domain = square_domain(8, exits=["left"])
+    rho_tilde = np.where(domain.centroid[:, 0] < 0.5, 1.5, 0.2)
+    exits = Boundary(domain).at(0.0)
+    projection = Projection(domain)
+    flux, _ = projection.projection(rho_tilde)
+    G = flux.facet_flux(domain, exits)
+    k0, k1 = domain.f2t
+    inner = domain.interior
+    net = np.bincount(k0, G, domain.ncells) - np.bincount(k1[inner], G[inner], domain.ncells)
+    outflow = np.zeros(domain.ncells)
+    outflow[flux.cells] = flux.outflow
+    assert np.allclose(net, outflow, rtol=0, atol=1e-12 * np.abs(G).max())
+    assert np.all(G[exits.wall] == 0) and G[exits.exit].sum() > 0
+    rho = flux.apply(rho_tilde, domain.area)
+    assert domain.area @ rho + G[exits.exit].sum() == pytest.approx(domain.area @ rho_tilde, rel=1e-14)

@@ -1,0 +1,23 @@
+"""The reference of the case keys (docs/case-format.md), made from the SCHEMA: one table per section.
+
+``python -m femcrowd.case.reference`` prints it; a test checks that the page holds exactly this text.
+"""
+
+from .schema import REQUIRED, SCHEMA
+from .template import toml_value
+
+
+def keys_markdown() -> str:
+    """Markdown tables of every key: name, default, meaning."""
+    lines = ["| key | default | meaning |", "|---|---|---|"]
+    for section, spec in SCHEMA.items():
+        for name, key in spec.items() if isinstance(spec, dict) else [(None, spec)]:
+            dotted = section if name is None else f"{section}.{name}"
+            default = "required" if key.default is REQUIRED else "not set" if key.default is None \
+                else f"`{toml_value(key.default)}`"
+            lines.append(f"| `{dotted}` | {default} | {key.doc.replace('|', '&#124;')} |")
+    return "\n".join(lines) + "\n"
+
+
+if __name__ == "__main__":
+    print(keys_markdown(), end="")
