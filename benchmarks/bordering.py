@@ -14,23 +14,22 @@ import argparse
 import time
 
 import numpy as np
-
 from scale import mesh_file
 
 
 def one_size(target, radius):
-    from femcrowd.mesh import load_domain
-    from femcrowd.linear import EnvelopeCholesky
-    from femcrowd.projection import Projection
+    from femcrowd.linalg.envelope import EnvelopeCholesky
+    from femcrowd.macro.projection import Projection
+    from femcrowd.mesh import Boundary, load_domain
 
     domain = load_domain(mesh_file(target), ["exit"])
-    projection = Projection(domain)
+    projection = Projection(domain, Boundary(domain).at(0.0))
     A = projection.A
     c = domain.centroid
     S0 = np.flatnonzero((c[:, 0] - 20) ** 2 + (c[:, 1] - 7.5) ** 2 < radius ** 2)
     envelope = np.flatnonzero((c[:, 0] - 20) ** 2 + (c[:, 1] - 7.5) ** 2 < (radius + 0.5) ** 2)
     tic = time.perf_counter()
-    order = projection.nested_dissection()
+    order = projection.solver.nested_dissection()
     metis = time.perf_counter() - tic
     for label, rank in (("CHOLMOD's own order (AMD)", None), ("nested dissection of the mesh (METIS)", order)):
         tic = time.perf_counter()

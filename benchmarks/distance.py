@@ -1,4 +1,4 @@
-"""Distance to the exits: time and error of femcrowd.distance.exit_distance per mesh size.
+"""Distance to the exits: time and error of femcrowd.mesh.distance.exit_distance per mesh size.
 
     python benchmarks/distance.py              # ~1e4, 1e5, 1e6 triangles
     python benchmarks/distance.py --quick      # ~1e4, 1e5 triangles
@@ -33,9 +33,9 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from femcrowd.distance import _seed_values, exit_distance  # noqa: E402
+from femcrowd.mesh.distance import _seed_values, exit_distance  # noqa: E402
 
-_spec = importlib.util.spec_from_file_location("_test_distance", ROOT / "tests" / "test_distance.py")
+_spec = importlib.util.spec_from_file_location("_test_distance", ROOT / "tests" / "mesh" / "test_distance.py")
 T = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(T)
 

@@ -4,7 +4,7 @@ Scene: a 20 m x 15 m hall with a 2 m door in the middle of the wall x = 20,
 U = -grad d / |grad d| (distance to the door, unit speed), crowd at density 1
 (saturated) within 7 m of the door and 0.85 elsewhere beyond x = 3: a large
 saturated zone from the first step. Meshes are made once with gmsh
-(femcrowd.geometry.build_mesh) in benchmarks/.cache.
+(femcrowd.mesh.floorplan.build_mesh) in benchmarks/.cache.
 
 Every size runs in its own process (peak memory per size) and prints, per phase,
 the median over the steps; the projection is compared, on the same saturated
@@ -14,7 +14,7 @@ is taken between the two largest sizes.
 
     python benchmarks/scale.py                      # sizes 1e4 1e5 1e6, 30 steps each
     python benchmarks/scale.py --sizes 1e4 1e5 --steps 20
-    python benchmarks/scale.py --long               # >= 500-step 10^6 evacuation, end to end (run_macro)
+    python benchmarks/scale.py --long               # >= 500-step 10^6 evacuation, end to end (femcrowd.run)
 """
 
 import argparse
@@ -45,7 +45,7 @@ DENSITY = "where((x - 20)**2 + (y - 7.5)**2 < 49, 1.0, 0.85 * (x > 3))"
 
 def mesh_file(target):
     """The cached gmsh mesh with about `target` triangles (made on first use)."""
-    from femcrowd.geometry import build_mesh
+    from femcrowd.mesh.floorplan import build_mesh
 
     path = CACHE / f"hall_{int(target)}.msh"
     if not path.exists():
@@ -62,72 +62,65 @@ def peak_memory_gb():
 
 def one_size(target, steps):
     """All phases at one size; returns a dict of medians and totals (seconds)."""
-    from femcrowd.expressions import Expression
-    from femcrowd.macro import MacroSolver
-    from femcrowd.mesh import load_domain
-    from femcrowd.output import FrameSeries, triangle_frame
-    from femcrowd.linear import amg_hierarchy, pcg, vcycle
-    from femcrowd.projection import Projection
-    from femcrowd.velocity import ExitsVelocity
+    from femcrowd.case import Expression
+    from femcrowd.driver.output import FrameSeries, triangle_frame
+    from femcrowd.linalg.amg import amg_hierarchy, pcg, vcycle
+    from femcrowd.macro import MacroSolver, MacroState
+    from femcrowd.macro.velocity import ExitsVelocity
+    from femcrowd.mesh import Boundary, load_domain
 
     path = mesh_file(target)
     out = {"target": target}
     tic = time.perf_counter()
     domain = load_domain(path, ["exit"])
+    boundary = Boundary(domain)
+    exits = boundary.at(0.0)
     out["mesh_load"] = time.perf_counter() - tic
     out["triangles"] = domain.ncells
     tic = time.perf_counter()
     velocity = ExitsVelocity(domain, Expression("1"))
+    velocity.cells(exits)
     out["distance"] = time.perf_counter() - tic
     print(f"{domain.ncells} triangles: load {out['mesh_load']:.1f} s, distance {out['distance']:.1f} s",
           file=sys.stderr, flush=True)
-    rho0 = Expression(DENSITY)(*domain.centroid.T, 0.0)
+    state = MacroState.initial(Expression(DENSITY)(*domain.centroid.T, 0.0)[None], 1)
     tic = time.perf_counter()
-    solver = MacroSolver(domain, velocity, rho0, cfl=0.5, projection=Projection(domain))
+    solver = MacroSolver(domain, boundary, [velocity], cfl=0.5)
+    projection = solver.projection(exits)[0]
+    transport = solver.transports(state, exits)[0]
     out["assembly"] = time.perf_counter() - tic
     tic = time.perf_counter()
-    solver.projection.nested_dissection()  # else computed at the first factorisation
+    solver.order(projection.A)  # else computed at the first factorisation
     out["ordering"] = time.perf_counter() - tic
 
-    projection, transport = solver.projection, solver.transport
     record = []
-
-    def timed_transport(rho, dt):
-        tic = time.perf_counter()
-        result = transport.step(rho, dt)
-        record.append({"transport": time.perf_counter() - tic})
-        return result
-
-    def timed_projection(rho_tilde):
-        tic = time.perf_counter()
-        rho, phi, info = projection(rho_tilde)
-        record[-1].update(info, projection=time.perf_counter() - tic, rho_tilde=rho_tilde)
-        return rho, phi, info
-
-    solver.transport = type("Timed", (), {"step": staticmethod(timed_transport), "max_dt": transport.max_dt,
-                                          "max_cfl": transport.max_cfl})()
-    solver.projection = timed_projection
-    mass0, worst = solver.mass, {"mass_error": 0.0, "max_density": 0.0, "min_density": 1.0, "min_phi": 0.0}
+    mass0, worst = domain.area @ state.density, {"mass_error": 0.0, "max_density": 0.0, "min_density": 1.0,
+                                                 "min_phi": 0.0}
     for k in range(steps):
+        before, timers = state.density.copy(), dict(solver.timers)
         tic = time.perf_counter()
-        solver.step()
-        record[-1]["step"] = time.perf_counter() - tic
-        worst["mass_error"] = max(worst["mass_error"], abs(solver.mass + solver.evacuated - mass0) / mass0)
-        worst["max_density"] = max(worst["max_density"], float(solver.rho.max()))
-        worst["min_density"] = min(worst["min_density"], float(solver.rho.min()))
-        worst["min_phi"] = min(worst["min_phi"], float(solver.p.min()))
+        result = solver.step(state)
+        step = time.perf_counter() - tic
+        record.append({**result["projection"], "step": step,
+                       "transport": solver.timers["transport"] - timers.get("transport", 0.0),
+                       "projection": solver.timers["projection"] - timers.get("projection", 0.0)})
+        mass = domain.area @ state.density
+        worst["mass_error"] = max(worst["mass_error"], abs(mass + state.evacuated.sum() - mass0) / mass0)
+        worst["max_density"] = max(worst["max_density"], float(state.rho.max()))
+        worst["min_density"] = min(worst["min_density"], float(state.rho.min()))
+        worst["min_phi"] = min(worst["min_phi"], float(state.p.min()))
         if k % 3 == 2 or k == steps - 1:  # the same saturated system solved from scratch by AMG
-            S = projection.active
+            S = projection.warm.active
             K = projection.A[S][:, S].tocsr()
-            rhs = domain.area[S] * (record[-1]["rho_tilde"][S] - 1.0)
+            rho_tilde = transport.step(before, result["dt"])[0]  # the step's prediction, again
+            rhs = domain.area[S] * (rho_tilde[S] - 1.0)
             tic = time.perf_counter()
             ml = amg_hierarchy(K)
             setup = time.perf_counter() - tic
             _, its, ok = pcg(K, rhs, np.zeros(len(S)), lambda r: vcycle(ml, r),
-                             projection._threshold(K, S, projection.tol), maxiter=500)
+                             projection.solver._threshold(K, S, projection.tol), maxiter=500)
             record[-1]["amg_fresh"] = time.perf_counter() - tic
             record[-1].update(amg_fresh_setup=setup, amg_fresh_iterations=its, amg_fresh_converged=ok)
-        del record[-1]["rho_tilde"]
         r = record[-1]
         print(f"step {k}: {r['step']:.3f} s, |S| {r['unknowns']}, active-set its {r['iterations']}, "
               f"CG its {r['linear_iterations']}, rebuilds {r['rebuilds']}, fresh AMG {r.get('amg_fresh', 0):.3f} s",
@@ -135,14 +128,14 @@ def one_size(target, steps):
     matvec = []
     for _ in range(20):  # the floor of a transport step: one mat-vec with its prebuilt matrix
         tic = time.perf_counter()
-        transport._update @ solver.rho
+        transport._update @ state.density
         matvec.append(time.perf_counter() - tic)
     out["matvec"] = float(np.median(matvec))
     with tempfile.TemporaryDirectory() as tmp:
         series = FrameSeries(Path(tmp), "solution")
         tic = time.perf_counter()
-        fields = {"density": solver.rho, "pressure": solver.p, "velocity": solver.velocity_field()}
-        series.write(solver.t, triangle_frame(domain, fields))
+        fields = {"density": state.density, "pressure": state.p, "velocity": solver.velocity_field(state)}
+        series.write(state.t, triangle_frame(domain, fields))
         out["output"] = time.perf_counter() - tic
         out["frame_mb"] = sum(f.stat().st_size for f in Path(tmp).glob("*.vtu")) / 2**20
 
@@ -165,7 +158,7 @@ def one_size(target, steps):
     out["amg_fresh_iterations"] = median("amg_fresh_iterations", sampled)
     out["ratio"] = float(np.median([r["projection"] / r["amg_fresh"] for r in sampled]))
     out["ratio_max"] = float(np.max([r["projection"] / r["amg_fresh"] for r in sampled]))
-    out["steps"], out["dt"] = steps, solver.stable_dt()
+    out["steps"], out["dt"] = steps, solver.stable_dt(state)
     out.update(worst)
     out["peak_gb"] = peak_memory_gb()
     return out
@@ -173,19 +166,20 @@ def one_size(target, steps):
 
 def max_dt(target):
     """The CFL-1 step of the upwind transport for the scene (its own process: not in the long run's memory)."""
-    from femcrowd.expressions import Expression
-    from femcrowd.mesh import load_domain
-    from femcrowd.transport import UpwindTransport
-    from femcrowd.velocity import ExitsVelocity
+    from femcrowd.case import Expression
+    from femcrowd.macro import MacroSolver, MacroState
+    from femcrowd.macro.velocity import ExitsVelocity
+    from femcrowd.mesh import Boundary, load_domain
 
     domain = load_domain(mesh_file(target), ["exit"])
-    return {"max_dt": UpwindTransport(domain, ExitsVelocity(domain, Expression("1")).normal_on_facets()).max_dt}
+    solver = MacroSolver(domain, Boundary(domain), [ExitsVelocity(domain, Expression("1"))])
+    state = MacroState.initial(np.zeros((1, domain.ncells)), 1)
+    return {"max_dt": solver.transports(state, solver.boundary.at(0.0))[0].max_dt}
 
 
 def long_run(target, steps, cfl_one_dt):
-    """A >= `steps`-step evacuation at CFL 0.5 through the user path (femcrowd.run.run_macro), timed end to end."""
-    from femcrowd.case import load_case
-    from femcrowd.run import run_macro
+    """A >= `steps`-step evacuation at CFL 0.5 through the user path (femcrowd.run), timed end to end."""
+    from femcrowd import load_case, run
 
     path = mesh_file(target)
     case_dir = CACHE / f"long_{int(target)}"
@@ -196,7 +190,7 @@ def long_run(target, steps, cfl_one_dt):
         f'[boundary]\nexits = ["exit"]\n[initial]\ndensity = "{DENSITY}"\n'
         f"[time]\nend = {end!r}\n[output]\nevery = {end / 4!r}\n")
     tic = time.perf_counter()
-    summary = run_macro(load_case(case_dir), out=str(case_dir / "output"), force=True, quiet=True)
+    summary = run(load_case(case_dir), out=case_dir / "output", force=True).summary
     wall = time.perf_counter() - tic
     return {"triangles": summary["mesh"]["triangles"], "steps": summary["steps"], "wall": wall,
             "simulated_time": summary["final_time"], "peak_gb": peak_memory_gb(), "timing": summary["timing"],

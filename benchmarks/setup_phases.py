@@ -3,7 +3,7 @@
 Per size, in its own process, medians over --repeat runs (load, distance) or --steps steps:
 
 - mesh load: femcrowd.mesh.load_domain(path, ["exit"]) of the cached gmsh mesh;
-- distance field: ExitsVelocity(domain, Expression("1")) (distance to the door + U per cell);
+- distance field: ExitsVelocity(domain, Expression("1")).cells(exits) (distance to the door + U per cell);
 - the same on the hall meshed by gmsh's Delaunay algorithm without smoothing (Mesh.Algorithm 5,
   Mesh.Smoothing 0; cached as hall_delaunay_N.msh), the mesh of the first scale.py runs, where
   obtuse triangles made the relaxations of the distance field pile up;
@@ -34,7 +34,7 @@ import scale  # noqa: E402  (the hall, its density and its mesh cache)
 
 def delaunay_mesh_file(target):
     """The hall meshed by gmsh's Delaunay algorithm, no smoothing (made on first use)."""
-    from femcrowd.geometry import build_mesh
+    from femcrowd.mesh.floorplan import build_mesh
 
     path = scale.CACHE / f"hall_delaunay_{int(target)}.msh"
     if not path.exists():
@@ -62,21 +62,29 @@ def elapsed(f):
 
 
 def one_size(target, repeat, steps):
-    from femcrowd.expressions import Expression
-    from femcrowd.mesh import load_domain
-    from femcrowd.transport import UpwindTransport
-    from femcrowd.velocity import ExitsVelocity
+    from femcrowd.case import Expression
+    from femcrowd.macro import MacroState
+    from femcrowd.macro.transport import UpwindTransport
+    from femcrowd.macro.velocity import ExitsVelocity
+    from femcrowd.mesh import Boundary, load_domain
+
+    def distance_field(domain):
+        velocity = ExitsVelocity(domain, Expression("1"))
+        velocity.cells(Boundary(domain).at(0.0))
+        return velocity
 
     out = {"target": target}
     out["mesh_load"], domain = median_time(lambda: load_domain(scale.mesh_file(target), ["exit"]), repeat)
     out["triangles"] = domain.ncells
-    out["distance"], velocity = median_time(lambda: ExitsVelocity(domain, Expression("1")), repeat)
+    out["distance"], velocity = median_time(lambda: distance_field(domain), repeat)
     delaunay = load_domain(delaunay_mesh_file(target), ["exit"])
     out["delaunay_triangles"] = delaunay.ncells
-    out["distance_delaunay"], _ = median_time(lambda: ExitsVelocity(delaunay, Expression("1")), repeat)
-    del delaunay
+    out["distance_delaunay"], _ = median_time(lambda: distance_field(delaunay), repeat)
+    delaunay = None  # its memory, before the transport steps
 
-    transport = UpwindTransport(domain, velocity.normal_on_facets())
+    exits = Boundary(domain).at(0.0)
+    state = MacroState.initial(np.zeros((1, domain.ncells)), 1)
+    transport = UpwindTransport(domain, exits, velocity.normal_on_facets(state, exits))
     dt = 0.5 * transport.max_dt
     rho = Expression(scale.DENSITY)(*domain.centroid.T, 0.0)
     mass0 = domain.area @ rho

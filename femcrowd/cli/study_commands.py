@@ -96,7 +96,7 @@ def stress(out, only, cases, force, checks):
 
     Each scene is a normal case run through the controller (femcrowd run); its
     summary.json, history.csv and frames are checked against the invariants of
-    the design note and the scene's exact solution. One row per scene; exit
+    docs/model.md and the scene's exact solution. One row per scene; exit
     code 1 if any scene fails.
 
     \b

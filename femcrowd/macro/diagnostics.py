@@ -1,4 +1,4 @@
-"""The invariants of a macro state (design note, "Properties every macro run must show"), in units of rho_max."""
+"""The invariants of a macro state (docs/model.md, "What every run shows"), in units of rho_max."""
 
 import numpy as np
 

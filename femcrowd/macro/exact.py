@@ -1,4 +1,4 @@
-"""Exact solutions of the design note, sec. 5 (rho_max = 1, unit speed unless stated).
+"""Exact solutions of the macro model (docs/model.md, "Exact solutions"; rho_max = 1, unit speed unless stated).
 
 Each solution gives density(x, y, t) and pressure(x, y, t) as arrays, and the
 scalar quantities a study compares (front position, saturated radius,
@@ -50,7 +50,7 @@ class RadialConcentration:
         return np.where(r < R, 1.0, np.where(r < self.R0 - t, moving, 0.0))
 
     def pressure(self, x, y, t):
-        """p = (R(t) - r)^+ (design note, sec. 5.2)."""
+        """p = (R(t) - r)^+."""
         return np.maximum(self.front(t) - np.hypot(x, y), 0.0)
 
 

@@ -1,5 +1,5 @@
-"""The macroscopic solver: one catching-up step, prediction + correction (design note, sec. 2;
-Maury, Roudneff-Chupin, Santambrogio 2010).
+"""The macroscopic solver: one catching-up step, prediction + correction (Maury, Roudneff-Chupin,
+Santambrogio 2010; docs/model.md).
 
     rho~      = transport of each population rho_i^n by its U_i over tau   (transport/)
     rho^{n+1} = projection of the total rho~ onto {rho <= 1}               (projection/, phi = tau p)

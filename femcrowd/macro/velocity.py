@@ -1,4 +1,4 @@
-"""Desired velocity U (design note, sec. 3): what each population would do alone.
+"""Desired velocity U (docs/model.md, "Desired velocity"): what each population would do alone.
 
 Every kind offers the same interface, evaluated for a state (its time t, and its density
 for a speed that depends on it) and the exits open at that time:

@@ -5,7 +5,7 @@ a closed exit is a wall (no flux, Neumann). Everything that depends on the
 exits - the Laplacian, its closed rooms, the distance field, the outflow
 matrices - depends only on the set of open exits, so :class:`Boundary` hands
 out one :class:`Exits` object per set and the solvers cache what they build
-on it (design note, sec. 6, "Door schedules").
+on it.
 """
 
 import numpy as np

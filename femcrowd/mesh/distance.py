@@ -1,7 +1,7 @@
 """Distance to the exits: the geodesic (shortest path inside the domain) field d.
 
 The desired velocity of evacuation scenes is U = -v grad d / |grad d|
-(docs: model-and-scheme.md, section 3), so d must be accurate at the nodes and
+(docs/model.md, "Desired velocity"), so d must be accurate at the nodes and
 its P1 gradient must point the right way in every triangle.
 
 Method: the Eikonal equation |grad d| = 1, d = 0 on the exits, solved on the
@@ -12,29 +12,11 @@ discrete solution as fast marching / fim-python, converged to 1e-6 of an edge
 length; error O(h), none where the paths are parallel lines to a straight exit.
 
 Why hand-written (numpy, vectorised over the active list; the loop is over
-wave fronts, not nodes) rather than a library: measured by
-``benchmarks/distance.py --compare`` on the square [-2, 2]^2 minus a disc of
-radius 0.5, exit = the side x = -2, against the exact distance. CPU seconds
-(the 2-core machine was loaded by other jobs: wall times were ~2.5x these):
-
-    triangles                  1e4     1e5     1e6    at 1e6: max / mean error, grad angle max / p99
-    this module               0.02    0.19    2.4     2.2e-3 / 1.3e-4,  4.2 / 0.48 deg
-    potpourri3d FMM (C++)     0.02    0.33    6.5     2.2e-3 / 1.3e-4,  8.9 / 0.49 deg (*)
-    fim-python (numpy FIM)    0.16    1.8     28      identical to this module
-    pygeodesic (exact MMP)    0.15    7.2     --      1e5: 3.2e-3 / 2.9e-5 (exact to the exit nodes)
-    potpourri3d heat method   0.03    0.8     --      1e5: 4.8e-2 / 2.0e-2, does not converge
-    scikit-fmm (grid+interp)  0.23    0.04    0.5     8.9e-3 / 1.3e-4, 41 deg next to the obstacle
-
-(*) only with the exact seeds below: seeded with the exit nodes alone it
-performs the triangle update across a boundary edge whose two ends are sources
-for one of the two pop orders only (d = 0.58 instead of 0.30 on one triangle),
-an O(h) offset over the whole field. It also has isolated 0.14 h defects (13
-degree gradients), refuses non-manifold meshes (two obstacles touching at a
-node) and drops unused trailing nodes. This module has none of these limits,
-is the fastest at 1e6 triangles and adds no dependency.
-
-Relaxing only a band near the front (see _fim) later took this module's row to 0.02 / 0.14 /
-1.9 s (2.8 s for the previous code in the same session), with the same errors.
+wave fronts, not nodes) rather than a library: against potpourri3d, fim-python,
+pygeodesic and scikit-fmm on the same meshes (``benchmarks/distance.py
+--compare``; figures in docs/performance.md, "Distance field: the libraries
+compared") it is the fastest at 10^6 triangles with the best errors, accepts
+non-manifold meshes and adds no dependency.
 
 Seeding: exit nodes get 0 and the nodes of the triangles around each exit node
 get their straight-line distance to the exit *segments* (exact for a straight
@@ -43,7 +25,7 @@ Nodes of a component without an exit keep ``np.inf`` (no NaN, no warning).
 The mesh need not be manifold nor consistently oriented; a node where two
 parts of the domain touch lets paths through (the closure of the domain).
 
-Accuracy (tests/test_distance.py): where the exit is in straight sight the
+Accuracy (tests/mesh/test_distance.py): where the exit is in straight sight the
 result is exact; around a convex obstacle the error is O(h) (0.3 h max,
 0.02 h mean); past the end of a door or a reflex corner d is the distance to a
 point and the error is O(h log 1/h) (0.3 h to 0.6 h max), as for every fast

@@ -1,4 +1,4 @@
-"""Contact candidates, gaps and constraint gradients (seed 000 sec. 2.2-2.3).
+"""Contact candidates, gaps and constraint gradients (Maury 2014, sec. 2.2-2.3).
 
 For discs i < j the gap is ``D_ij = |q_j - q_i| - r_i - r_j`` with gradient
 ``G_ij = (.., -e_ij, .., e_ij, ..)``, ``e_ij = (q_j - q_i)/|q_j - q_i|``.
@@ -11,7 +11,7 @@ when the constraints of every pair that *could* touch are included.
 The rows of the constraint matrix ``B = -G`` are stored compactly: a row is
 ``c . (v_i - v_j)`` for a disc pair (``c = e_ij``) and ``c . v_i`` for a
 wall contact (``c = -n``); the projection then reads ``B v <= D / tau``
-(seed 000 eq. 16).
+(Maury 2014, eq. 16).
 
 Candidate rows come from KD-trees (scipy.spatial.cKDTree) and are kept as a
 Verlet list: every pair whose gap is at most ``skin`` when the list is built.

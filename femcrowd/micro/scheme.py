@@ -1,4 +1,4 @@
-"""Catching-up scheme for rigid discs (seed 000 eqs. 14-16, Maury-Venel).
+"""Catching-up scheme for rigid discs (Maury, Venel 2011; Maury 2014, eqs. 14-16).
 
 One step of length tau from the centres q^n:
 
@@ -39,7 +39,7 @@ class StepInfo:
 
     ids: original indices of the remaining discs; q: their centres after the
     step; r: radii; u: the velocity of the step; pressure: sum of the contact
-    multipliers lambda touching each disc (seed 000 eq. 16).
+    multipliers lambda touching each disc (Maury 2014, eq. 16).
     """
 
     step: int
@@ -115,7 +115,7 @@ class MicroSimulation:
     exits : (E, 2, 2) exit segments.
     U : desired velocity, ``U(xy (n, 2), t) -> (n, 2)``.
     tau : time step.
-    method : "exact" (default) or "uzawa" (seed 000 eq. 17).
+    method : "exact" (default) or "uzawa" (Maury 2014, eq. 17).
     skin : Verlet-list skin (default: 6 tau max|U| at the first step, at
         least half the mean radius).
     tol : relative KKT tolerance of the projection.
@@ -206,7 +206,7 @@ class MicroSimulation:
 
     # ------------------------------------------------------------------
     def step(self) -> StepInfo:
-        """One catching-up step (seed 000 eq. 15): returns its diagnostics."""
+        """One catching-up step (Maury 2014, eq. 15): returns its diagnostics."""
         t_start = _time.perf_counter()
         tau = self.tau
         N = self.count

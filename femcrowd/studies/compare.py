@@ -1,4 +1,4 @@
-"""Micro/macro comparison on the same scene (seed 002, last section).
+"""Micro/macro comparison on the same scene (Maury, Roudneff-Chupin, Santambrogio, Venel 2011, last section).
 
 The case is run twice, as a macro case and as a micro case (same mesh, exits,
 desired velocity, initial density; the discs are sampled from the macro
@@ -7,7 +7,7 @@ initial density). Both runs write their usual outputs (``macro/``,
 
 - people inside vs time for both models: the macro mass is converted to
   people with the discs' count, i.e. macro rho = 1 corresponds to the packing
-  density the discs actually reached (seed 002's normalisation);
+  density the discs actually reached (the normalisation of Maury et al. 2011);
 - W2, the quadratic Wasserstein distance between the macro density and the
   discs (POT's exact network-simplex solver, both normalised to unit mass:
   it compares the shapes of the crowds still inside);

@@ -1,5 +1,5 @@
 """Errors of a computed state against a reference: the exact solution of the case, or the finest level
-of a refinement series (design note, sec. 5). The metrics, at a measurement time t:
+of a refinement series (docs/model.md, "Exact solutions"). The metrics, at a measurement time t:
 
     l1              sum_K |K| |rho_K - <rho>_K|           (<.>_K: cell average of the reference)
     l1_pixels       the same on a 50 x 50 pixel grid of the bounding box (both fields averaged on pixels)
@@ -64,7 +64,7 @@ def exact_solution(case):
 
 
 class ExactReference:
-    """An exact solution of the design note as the reference of a study."""
+    """An exact solution (macro/exact.py) as the reference of a study."""
 
     def __init__(self, exact):
         self.exact = exact

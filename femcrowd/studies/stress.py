@@ -4,7 +4,7 @@ Every directory of ``cases/stress`` is an ordinary case. :func:`run_scene` runs
 it as ``femcrowd run`` does (quiet) and judges it from what a user gets in the
 output directory (summary.json, history.csv, the frames):
 
-1. the invariants every macro run must show (design note, "Properties every
+1. the invariants every macro run must show (docs/model.md, "What every
    macro run must show"), over all steps: mass(t) + evacuated(t) = mass(0) to
    1e-10 relative; 0 <= rho <= 1 + 1e-9; p >= 0; p = 0 where rho < 1 - 1e-9;
    complementarity |p (1 - rho)| <= 1e-9 max(1, max p); linear residual
@@ -120,7 +120,7 @@ class Output:
 
 
 def invariants(s, rho_max=1.0):
-    """The design note's properties over the whole run, from summary.json."""
+    """The properties every run must show (docs/model.md) over the whole run, from summary.json."""
     return [
         Check("completed", s["status"] == "completed", s["status"]),
         Check("mass + evacuated conserved", s["max_mass_error"] <= MASS_TOL, f"{s['max_mass_error']:.1e}"),
@@ -210,7 +210,7 @@ def closed_saturated(run):
 
 
 def saturated_exit(run):
-    """Everyone leaves, and faster than the free flow v |door| (pushed from behind, seed 002)."""
+    """Everyone leaves, and faster than the free flow v |door| (pushed from behind, Maury et al. 2011)."""
     s, hist = run.summary, run.history
     half = int(np.argmax(hist["mass"] <= 0.5 * s["initial_mass"]))
     rate = hist["evacuated"][half] / hist["time"][half]
@@ -263,7 +263,7 @@ def slivers(run):
     """A bad mesh (slivers, caps, non-Delaunay pairs) is run as is, clipped, and still packs right.
 
     The pressure is not checked: the two-point flux is not consistent across the clipped
-    pairs and the caps (design note), so p is off there (docs/stress.md gives the figure).
+    pairs and the caps (docs/model.md), so p is off there (docs/stress.md gives the figure).
     """
     m = run.summary["mesh"]
     return [Check("non-Delaunay pairs reported and clipped",

@@ -61,7 +61,7 @@ def test_mesh_new_and_run_a_floor_plan(tmp_path):
     text = (case_dir / "case.toml").read_text()
     assert text.count("#") > 20  # commented
 
-    # exact solution 3 of the design note (k = 1, s0 = 1) on this channel: all the crowd leaves by the
+    # exact solution 3 (k = 1, s0 = 1) on this channel: all the crowd leaves by the
     # west exit, pushed by the pressure; nothing reaches the east exit
     out = tmp_path / "out"
     result = invoke("run", case_dir, "--out", out, "-q", "--set", "time.end=0.3", "--set", 'velocity.type="field"',

@@ -1,5 +1,5 @@
 """Every shipped case runs through the real controller and shows the invariants of the
-design note at every step: mass balance, bounds, p >= 0, p = 0 off the saturated zone."""
+model (docs/model.md) at every step: mass balance, bounds, p >= 0, p = 0 off the saturated zone."""
 
 import csv
 import json

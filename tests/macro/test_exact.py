@@ -1,8 +1,8 @@
-"""The macro solver against the exact solutions of the design note, sec. 5 (observed rates).
+"""The macro solver against the exact solutions of docs/model.md (observed rates).
 
 In the style of scikit-fem's tests/test_convergence.py: one TestCase per problem,
 errors on a refinement series, the slope of log(error) against log(h) fitted on
-the finer pair and compared with the rate the design note expects for DG0
+the finer pair and compared with the rate expected for DG0
 (L1 density ~ h^1/2 across jumps, fronts and evacuated mass ~ h).
 """
 

@@ -11,7 +11,7 @@ from ..support import unit_square as square_domain
 
 
 def check_lcp(domain, rho_tilde, rho, phi, tol=1e-9):
-    """The discrete properties of the design note, sec. 2."""
+    """The discrete properties of the correction step (docs/model.md)."""
     area = domain.area
     assert np.all(np.isfinite(rho)) and np.all(np.isfinite(phi))
     assert phi.min() >= 0

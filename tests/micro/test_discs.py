@@ -137,7 +137,7 @@ def test_exact_and_uzawa_agree_on_jammed_configurations():
 
 
 def test_projection_handles_hyperstatic_cluster():
-    # seed 000 Fig. 3: more contacts than degrees of freedom (B B^T singular)
+    # Maury 2014, Fig. 3: more contacts than degrees of freedom (B B^T singular)
     s = 2.0
     X, Y = np.meshgrid(np.arange(5), np.arange(4))
     q = np.c_[X.ravel() + 0.5 * (Y.ravel() % 2), Y.ravel() * np.sqrt(3) / 2] * s

@@ -1,5 +1,5 @@
 """Stiff and extreme scenes (cases/stress) through the normal controller: every scene passes the
-invariants of the design note and its own exact checks (femcrowd.stress)."""
+invariants of docs/model.md and its own exact checks (femcrowd.studies.stress)."""
 
 import csv
 import json

@@ -1,5 +1,5 @@
 """Correction step: the projection of rho~ onto {rho <= 1} as a linear complementarity problem
-(design note, sec. 2, step 2; Maury, Roudneff-Chupin, Santambrogio 2010).
+(Maury, Roudneff-Chupin, Santambrogio 2010; docs/model.md, "The catching-up scheme").
 
 Find phi = tau p on the cells such that
 

@@ -4,7 +4,7 @@ A component of S is a closed, fully saturated room (pure Neumann problem) exactl
 is a whole connected component of A's graph with no exit cell, so the components are found
 once per set of open exits. There the solution exists (rho stays 1) and phi is fixed up to a
 constant: one cell per room is pinned (phi = 0) for the solve, then the room is shifted so
-that min phi = 0 (the gauge of the design note, sec. 2).
+that min phi = 0 (the gauge of docs/model.md).
 """
 
 import numpy as np

@@ -1,5 +1,5 @@
 """Prediction step: order-0 upwind DG (finite volume) transport by the desired velocity
-(design note, sec. 2, step 1).
+(docs/model.md, "The catching-up scheme").
 
     |K| (rho~_K - rho_K) / tau = - sum_{e in K} |e| (a_{K,e}^+ rho_K - a_{L,e}^- rho_L)
 
