@@ -16,7 +16,7 @@ from pathlib import Path
 
 from .. import __version__
 from ..case import Case
-from ..mesh import file_checksum
+from ..mesh import Domain, file_checksum
 from .loop import drive
 from .macro_model import MacroModel
 from .micro_model import MicroModel
@@ -40,11 +40,11 @@ class Result:
     output_dir: Path = None
 
     @property
-    def state(self):
+    def state(self):  # MacroState, or the MicroSimulation
         return self.model.state
 
     @property
-    def domain(self):
+    def domain(self) -> Domain:
         return self.model.domain
 
 

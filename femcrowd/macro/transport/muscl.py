@@ -93,7 +93,7 @@ class MUSCLTransport(UpwindTransport):
         np.maximum(new, 0.0, out=new)
         return new, dt * (self.exit_flux @ f0)
 
-    def step(self, rho, dt):
+    def step(self, rho: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """rho~ (SSP-RK2, or one Euler stage) and the mass that left through each exit during dt."""
         one, out1 = self._euler(rho, dt)
         if self.stages == 1:

@@ -51,7 +51,7 @@ class UpwindTransport:
         with np.errstate(divide="ignore"):
             self.max_dt = float(np.min(domain.area / outflow))  # inf when nothing moves
 
-    def step(self, rho, dt):
+    def step(self, rho: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """rho~ and the mass that left through each exit during dt (array over exits.names).
 
         From its second step on (a time-dependent U makes a new transport every
