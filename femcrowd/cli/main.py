@@ -48,10 +48,14 @@ def study_out_option(name):
                              f"[output].dir/{name} of the case).")
 
 
+threads_option = click.option("--threads", type=click.IntRange(min=1), default=1, show_default=True,
+                               help="BLAS/OpenMP threads (more rarely help: femcrowd's work is sparse).")
+
+
 def case_run_options(command):
-    """CASE_DIR, --set, --out, --force, -q: the arguments of the commands that run a case."""
+    """CASE_DIR, --set, --out, --force, -q, --threads: the arguments of the commands that run a case."""
     for option in reversed([click.argument("case_dir", type=click.Path()), set_option,
-                            out_option, force_option, quiet_option]):
+                            out_option, force_option, quiet_option, threads_option]):
         command = option(command)
     return command
 

@@ -11,7 +11,7 @@ from .main import case_run_options, main
 
 @main.command()
 @case_run_options
-def run(case_dir, overrides, out, force, quiet):
+def run(case_dir, overrides, out, force, quiet, threads):
     """Run the case in CASE_DIR (a directory with case.toml).
 
     \b
@@ -22,7 +22,7 @@ def run(case_dir, overrides, out, force, quiet):
     from ..driver import run as run_case
 
     case = load_case(case_dir, overrides)
-    summary = run_case(case, out, force, quiet).summary
+    summary = run_case(case, out, force, quiet, threads=threads).summary
     if case["model"]["type"] == "micro":
         click.echo(f"{summary['status']}: {summary['steps']} steps to t = {summary['final_time']:.4g} s "
                    f"in {summary['timing']['wall']:.1f} s; {summary['initial_count']} discs, "
@@ -45,7 +45,7 @@ def _look(out_dir, model="macro"):
 
 @main.command()
 @case_run_options
-def compare(case_dir, overrides, out, force, quiet):
+def compare(case_dir, overrides, out, force, quiet, threads):
     """Run CASE_DIR with the macro and the micro model on the same scene and compare them.
 
     Writes OUT/macro, OUT/micro (the usual outputs), comparison.csv (people inside for both
@@ -58,7 +58,7 @@ def compare(case_dir, overrides, out, force, quiet):
     """
     from ..studies.compare import compare as run_comparison
 
-    result = run_comparison(load_case(case_dir, overrides), out, force, quiet)
+    result = run_comparison(load_case(case_dir, overrides), out, force, quiet, threads=threads)
     last = result["rows"][-1]
     for model in ("macro", "micro"):
         t = result[model]["evacuation_time"]

@@ -2,6 +2,7 @@
 
 import time
 
+from ..linalg.vectors import dot
 from ..macro import MacroSolver, MacroState
 from ..macro.diagnostics import invariants
 from .output import triangle_frame
@@ -65,7 +66,7 @@ class MacroModel:
 
     @property
     def mass(self) -> float:
-        return float(self.domain.area @ self.state.density)
+        return dot(self.domain.area, self.state.density)
 
     @property
     def timers(self) -> dict:

@@ -56,7 +56,7 @@ class MicroModel:
         self.stop_when_empty = case["time"]["stop_when_empty"] and bool(domain.exit_group)
         self.evacuation_time = None
         self.last = None   # the last step's StepInfo (positions, velocities, pressures of its discs)
-        self.timers = {}
+        self.timers = {"step": 0.0}
 
     @property
     def t(self) -> float:
@@ -71,7 +71,9 @@ class MicroModel:
         """One step, not beyond `until` (a shorter one lands exactly on it); its StepInfo."""
         sim = self.sim
         sim.tau = min(self.tau, until - sim.t)
+        tic = time.perf_counter()
         info = sim.step()
+        self.timers["step"] += time.perf_counter() - tic
         if until - sim.t < 1e-12 * max(1.0, until):
             sim.t = until
         sim.tau = self.tau

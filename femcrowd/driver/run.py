@@ -16,6 +16,7 @@ from pathlib import Path
 
 from .. import __version__
 from ..case import Case
+from ..linalg.threads import thread_limit
 from ..mesh import Domain, file_checksum
 from .loop import drive
 from .macro_model import MacroModel
@@ -52,14 +53,20 @@ class Simulation:
     """A case set up for a run: the scene and the model's initial state; nothing written yet.
 
     Building it checks the whole case (mesh, exits, expressions, initial crowd): a bad case
-    raises InputError here, before any output directory is touched.
+    raises InputError here, before any output directory is touched. ``threads``: the size of the
+    BLAS and OpenMP thread pools during the set-up and the run (threadpoolctl). The default, 1,
+    is femcrowd's best choice on a shared machine: its work is sparse (mat-vecs, CHOLMOD's
+    supernodes of a 2-D mesh), where more threads gain little and spin against other processes
+    (docs/performance.md, "Threads").
     """
 
-    def __init__(self, case: Case):
+    def __init__(self, case: Case, threads: int = 1):
         self._wall = time.perf_counter()
-        self.case = case
-        self.scene = build_scene(case)
-        self.model = MODELS[case["model"]["type"]](self.scene)
+        self.case, self.threads = case, threads
+        with thread_limit(threads):
+            self.threads_seconds = time.perf_counter() - self._wall  # finding the pools, once per process
+            self.scene = build_scene(case)
+            self.model = MODELS[case["model"]["type"]](self.scene)
         log.info("set up %s: %s", case.file, ", ".join(f"{k} {v:.3g} s" for k, v in self.scene.timing.items()))
 
     def run(self, out=None, force: bool = False, quiet: bool = True, stops=(), on_stop=None,
@@ -74,6 +81,7 @@ class Simulation:
         """
         case, model = self.case, self.model
         model.stop_when_empty &= stop_when_empty
+        tic = time.perf_counter()
         out_dir = prepare_output_dir(out, case.file, force) if out is not None else None
         history = frames = None
         recorder = Recorder(model.columns)
@@ -86,7 +94,7 @@ class Simulation:
                    "case_file": str(case.file), "output_dir": str(out_dir) if out_dir else None,
                    "mesh": {"file": str(domain.source), "sha256": file_checksum(domain.source),
                             **domain.statistics()}}
-        timers = {"output": 0.0}
+        timers = {"output": time.perf_counter() - tic}  # output directory, mesh checksum and statistics
 
         def write_frame():
             if frames is not None:
@@ -95,19 +103,22 @@ class Simulation:
                 timers["output"] += time.perf_counter() - tic
 
         def finish(status):
+            tic = time.perf_counter()
             if history is not None:
                 history.close()
             recorded = recorder.summary()
             summary.update(status=status, **recorded, **model.summary(recorded))
-            summary["timing"] = {**self.scene.timing, **dict(model.timers), **timers,
+            timers["output"] += time.perf_counter() - tic
+            summary["timing"] = {"threads": self.threads_seconds, **self.scene.timing, **dict(model.timers), **timers,
                                  "wall": time.perf_counter() - self._wall}
             if out_dir is not None:
                 write_json(out_dir / "summary.json", summary)
             return Result(summary, recorder.history(), model, out_dir)
 
         try:
-            drive(model, recorder, case["time"]["end"], case["output"]["every"], write_frame,
-                  stops, on_stop, quiet, timers)
+            with thread_limit(self.threads):
+                drive(model, recorder, case["time"]["end"], case["output"]["every"], write_frame,
+                      stops, on_stop, quiet, timers)
         except KeyboardInterrupt:
             finish("interrupted")
             raise
@@ -117,8 +128,9 @@ class Simulation:
         return finish("completed")
 
 
-def run(case: Case, out=None, force: bool = False, quiet: bool = True, files: bool = True) -> Result:
+def run(case: Case, out=None, force: bool = False, quiet: bool = True, files: bool = True,
+        threads: int = 1) -> Result:
     """Run a case into `out` (relative to the current directory; default: output.dir of the case,
     relative to the case file), or without writing anything when files is False."""
-    simulation = Simulation(case)
+    simulation = Simulation(case, threads)
     return simulation.run(case.output_dir(out) if files else None, force, quiet)

@@ -4,6 +4,8 @@ preconditioned by a Ruge-Stuben V-cycle (Ruge, Stuben 1987; pyamg)."""
 import numpy as np
 import pyamg
 
+from .vectors import dot
+
 
 class Hierarchy:
     """A Ruge-Stuben hierarchy of K on `cells` (sorted)."""
@@ -47,7 +49,7 @@ def vcycle(ml, b, level=0):
 def pcg(K, rhs, x0, precondition, threshold, maxiter):
     """Preconditioned conjugate gradients for the SPD K from x0, until |r_i| <= threshold(x)_i for every i.
 
-    Returns (x, iterations, converged). Dot products use einsum (no BLAS threads).
+    Returns (x, iterations, converged). Dot products on the calling thread (vectors.dot).
     """
     x = np.array(x0, float)
     r = rhs - K @ x
@@ -55,10 +57,10 @@ def pcg(K, rhs, x0, precondition, threshold, maxiter):
         return x, 0, True
     z = precondition(r)
     p = z.copy()
-    rz = _dot(r, z)
+    rz = dot(r, z)
     for iteration in range(1, maxiter + 1):
         q = K @ p
-        alpha = rz / _dot(p, q)
+        alpha = rz / dot(p, q)
         x += alpha * p
         r -= alpha * q
         if np.all(np.abs(r) <= threshold(x)):
@@ -66,11 +68,8 @@ def pcg(K, rhs, x0, precondition, threshold, maxiter):
             if np.all(np.abs(r) <= threshold(x)):
                 return x, iteration, True
         z = precondition(r)
-        rz, rz_old = _dot(r, z), rz
+        rz, rz_old = dot(r, z), rz
         p *= rz / rz_old
         p += z
     return x, maxiter, False
 
-
-def _dot(a, b):
-    return float(np.einsum("i,i->", a, b))

@@ -2,6 +2,8 @@
 
 import numpy as np
 
+from ..linalg.vectors import dot
+
 #: rho above this counts as saturated (the solver tolerance)
 SATURATED = 1.0 - 1e-9
 
@@ -13,7 +15,7 @@ def invariants(domain, state) -> dict:
     saturated = rho >= SATURATED
     unsaturated_p = p[~saturated]
     return {
-        "mass": float(area @ rho), "evacuated": float(state.evacuated.sum()),
+        "mass": dot(area, rho), "evacuated": float(state.evacuated.sum()),
         "max_density": float(rho.max()), "min_density": float(rho.min()),
         "saturated_area": float(area[saturated].sum()),
         "max_pressure": float(p.max()), "min_pressure": float(p.min()),

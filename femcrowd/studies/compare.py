@@ -31,13 +31,13 @@ from ..driver.output import prepare_output_dir  # noqa: E402
 from ..driver.reading import read_frame, read_pvd  # noqa: E402
 
 
-def compare(case: Case, out=None, force=False, quiet=False, pictures=4) -> dict:
+def compare(case: Case, out=None, force=False, quiet=False, pictures=4, threads: int = 1) -> dict:
     """Run both models into OUT/macro and OUT/micro, then write the comparison into OUT."""
     out_dir = prepare_output_dir(case.output_dir(out), case.file, force)
     runs = {}
     for model in ("macro", "micro"):
         config = {**case.config, "model": {**case["model"], "type": model}}
-        runs[model] = run(Case(config, case.file), out_dir / model, force, quiet)
+        runs[model] = run(Case(config, case.file), out_dir / model, force, quiet, threads=threads)
     macro = _frames(out_dir / "macro" / "solution.pvd")
     micro = _frames(out_dir / "micro" / "discs.pvd")
     count = runs["micro"].summary["initial_count"]

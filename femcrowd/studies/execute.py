@@ -4,9 +4,8 @@ machine's cores, or an existing scheduler)."""
 import logging
 import os
 
-from threadpoolctl import threadpool_limits
-
 from ..errors import InputError
+from ..linalg.threads import thread_limit
 
 
 def execute(function, tasks: list, serial: bool = False, scheduler: str | None = None, echo=None) -> list:
@@ -68,7 +67,7 @@ def _catching(function):
     not unpickle)."""
     def wrapped(task):
         try:
-            with threadpool_limits(1):
+            with thread_limit(1):
                 return function(task)
         except InputError as err:
             return {"input_error": (err.file, err.key, err.value, err.message)}

@@ -49,6 +49,8 @@ def test_shipped_case_invariants_at_every_step(name, tmp_path):
         assert iterations.mean() <= 3, iterations.mean()    # warm start
     if case["boundary"]["exits"] and name != "saturated-exit":
         assert summary["evacuation_time"] is not None       # evacuation scenes empty the room
+    timing = dict(summary["timing"])
+    assert sum(timing.values()) - timing["wall"] >= 0.95 * timing["wall"], timing  # every second accounted for
 
 
 def test_room_output_reads_back_in_pyvista(tmp_path):
