@@ -11,18 +11,22 @@ from .main import case_run_options, main
 
 @main.command()
 @case_run_options
-def run(case_dir, overrides, out, force, quiet, threads):
+@click.option("--resume", is_flag=True,
+              help="Continue the run in the output directory from its checkpoint (written at every frame and on "
+                   "Ctrl-C), e.g. after an interruption or with a larger time.end.")
+def run(case_dir, overrides, out, force, quiet, threads, resume):
     """Run the case in CASE_DIR (a directory with case.toml).
 
     \b
     Examples:
       femcrowd run cases/room --set time.end=5 --out results/room
       femcrowd run cases/narrow-door-micro        (model.type = "micro": discs)
+      femcrowd run cases/room --resume            (continue after Ctrl-C)
     """
     from ..driver import run as run_case
 
     case = load_case(case_dir, overrides)
-    summary = run_case(case, out, force, quiet, threads=threads).summary
+    summary = run_case(case, out, force, quiet, threads=threads, resume=resume).summary
     if case["model"]["type"] == "micro":
         click.echo(f"{summary['status']}: {summary['steps']} steps to t = {summary['final_time']:.4g} s "
                    f"in {summary['timing']['wall']:.1f} s; {summary['initial_count']} discs, "

@@ -2,6 +2,8 @@
 
 import time
 
+import numpy as np
+
 from ..linalg.vectors import dot
 from ..macro import MacroSolver, MacroState
 from ..macro.diagnostics import invariants
@@ -111,6 +113,20 @@ class MacroModel:
         if "velocity" in self.fields:
             data["velocity"] = self.solver.velocity_field(self.state)
         return triangle_frame(self.domain, data)
+
+    def snapshot(self) -> dict:
+        """The state to continue from (a checkpoint): arrays and numbers."""
+        st = self.state
+        return {"rho": st.rho, "p": st.p, "evacuated": st.evacuated, "t": st.t, "steps": st.steps,
+                "evacuation_time": np.nan if self.evacuation_time is None else self.evacuation_time}
+
+    def restore(self, data: dict) -> None:
+        """Continue from a snapshot."""
+        st = self.state
+        st.rho, st.p, st.evacuated = data["rho"].copy(), data["p"].copy(), data["evacuated"].copy()
+        st.t, st.steps = float(data["t"]), int(data["steps"])
+        self.evacuation_time = None if np.isnan(data["evacuation_time"]) else float(data["evacuation_time"])
+        self.row()  # the mass inside, for the empty check
 
     def summary(self, recorded: dict) -> dict:
         """What the summary adds to the recorder's entries."""

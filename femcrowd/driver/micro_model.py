@@ -8,6 +8,7 @@ radii per step).
 """
 
 import time
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -101,6 +102,21 @@ class MicroModel:
             u = sim.desired_velocity() if sim.count else np.zeros((0, 2))
             return disc_frame(sim.q, sim.r, u, np.zeros(sim.count))
         return disc_frame(self.last.q, self.last.r, self.last.u, self.last.pressure)
+
+    def snapshot(self) -> dict:
+        """The discs to continue from (a checkpoint); the candidate list and the multipliers are rebuilt."""
+        sim, last = self.sim, self.last
+        pressure = last.pressure if last is not None else np.zeros(sim.count)
+        return {"q": sim.q, "r": sim.r, "ids": sim.ids, "u": sim.u, "pressure": pressure, "t": sim.t,
+                "steps": sim.nstep, "evacuated": sim.evacuated,
+                "evacuation_time": np.nan if self.evacuation_time is None else self.evacuation_time}
+
+    def restore(self, data: dict) -> None:
+        """Continue from a snapshot."""
+        sim = self.sim
+        sim.restart(data["q"], data["r"], data["ids"], data["u"], data["t"], data["steps"], data["evacuated"])
+        self.evacuation_time = None if np.isnan(data["evacuation_time"]) else float(data["evacuation_time"])
+        self.last = SimpleNamespace(q=sim.q, r=sim.r, u=sim.u, pressure=data["pressure"].copy())
 
     def summary(self, recorded: dict) -> dict:
         """What the summary adds to the recorder's entries."""

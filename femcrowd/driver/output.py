@@ -1,4 +1,4 @@
-"""Writing a run: the output directory, VTU frames + PVD collection, history.csv, summary.json.
+"""Writing a run: the output directory, VTU frames + PVD collection, history.csv, summary.json, checkpoints.
 
 Every file is written so that an interrupted run leaves what it wrote readable:
 frames are complete files, the PVD index and summary.json are replaced
@@ -25,7 +25,7 @@ log = logging.getLogger("femcrowd")
 MARKER = ".femcrowd-run"
 #: the files of a run: cleared when a new run replaces an old one
 RUN_FILES = ("solution_*.vtu", "discs_*.vtu", "solution.pvd", "discs.pvd", "history.csv", "summary.json",
-             "case.toml")
+             "case.toml", "checkpoint.npz")
 
 
 def prepare_output_dir(path, case_file, force=False) -> Path:
@@ -80,17 +80,30 @@ def copy_case(case_file, directory) -> None:
 
 
 class FrameSeries:
-    """A time series of VTU files indexed by a PVD collection (ParaView reads the times)."""
+    """A time series of VTU files indexed by a PVD collection (ParaView reads the times).
 
-    def __init__(self, directory, stem):
+    frames: the (time, file) of the frames already written by the run this one resumes; its later
+    frames (written after its checkpoint) are removed.
+    """
+
+    def __init__(self, directory, stem, frames=None):
         self.directory, self.stem = Path(directory), stem
-        self.frames = []
+        self.frames = [(float(t), str(name)) for t, name in frames or ()]
+        if frames is not None:
+            keep = {name for _, name in self.frames}
+            for old in self.directory.glob(f"{stem}_*.vtu"):
+                if old.name not in keep:
+                    old.unlink()
+            self._index()
 
     def write(self, t, mesh):
         name = f"{self.stem}_{len(self.frames):05d}.vtu"
         meshio.vtu.write(str(self.directory / name), mesh, binary=True, compression="zlib")
         self.frames.append((float(t), name))
-        # meshio has no .pvd writer: the collection is a few lines of XML.
+        self._index()
+
+    def _index(self):
+        """Write the PVD collection (meshio has none: a few lines of XML), atomically."""
         rows = "\n".join(f'    <DataSet timestep="{t!r}" group="" part="0" file="{f}"/>'
                          for t, f in self.frames)
         text = ('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1" '
@@ -117,13 +130,16 @@ def disc_frame(q, r, u, pressure) -> meshio.Mesh:
 
 
 class HistoryFile:
-    """history.csv, one row per step, flushed so that an interrupted run keeps it."""
+    """history.csv, one row per step, flushed so that an interrupted run keeps it; rows: those of the
+    steps already done (a resumed run)."""
 
-    def __init__(self, path, columns):
+    def __init__(self, path, columns, rows=()):
         self.columns = columns
         self._file = open(path, "w", newline="")
         self._writer = csv.writer(self._file)
         self._writer.writerow(columns)
+        for row in rows:
+            self.append(row)
 
     def append(self, row) -> None:
         self._writer.writerow([_fmt(row[c]) for c in self.columns])

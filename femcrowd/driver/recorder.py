@@ -51,6 +51,15 @@ class Recorder:
         if self.sink is not None:
             self.sink.append(row)
 
+    def restore(self, rows: dict) -> None:
+        """Continue the record of a resumed run (rows: one array per column)."""
+        self.rows = {c.name: list(rows[c.name]) for c in self.columns}
+
+    def records(self):
+        """The rows so far, each as a dict."""
+        names = list(self.rows)
+        return (dict(zip(names, values)) for values in zip(*self.rows.values()))
+
     def history(self) -> dict:
         """The rows so far as arrays, one per column."""
         return {name: np.asarray(values) for name, values in self.rows.items()}

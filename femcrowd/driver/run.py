@@ -18,6 +18,7 @@ from .. import __version__
 from ..case import Case
 from ..linalg.threads import thread_limit
 from ..mesh import Domain, file_checksum
+from . import checkpoint
 from .loop import drive
 from .macro_model import MacroModel
 from .micro_model import MicroModel
@@ -70,37 +71,56 @@ class Simulation:
         log.info("set up %s: %s", case.file, ", ".join(f"{k} {v:.3g} s" for k, v in self.scene.timing.items()))
 
     def run(self, out=None, force: bool = False, quiet: bool = True, stops=(), on_stop=None,
-            stop_when_empty: bool = True) -> Result:
+            stop_when_empty: bool = True, resume: bool = False) -> Result:
         """Run to time.end (or until the crowd has left), writing into `out` when it is given.
 
         out: the output directory (relative to the current directory), or None for no files;
         stops, on_stop: times at which to call on_stop(recorder) (studies); stop_when_empty=False runs to
-        time.end even when the crowd has left. Returns the Result; summary["status"] is
-        "completed", or "interrupted" / "failed: ..." when the loop raised (the exception goes
-        on, after the summary is written).
+        time.end even when the crowd has left; resume: continue the run whose checkpoint is in `out`
+        (checkpoint.py). Returns the Result; summary["status"] is "completed", or "interrupted" /
+        "failed: ..." when the loop raised (the exception goes on, after the summary is written).
         """
-        case, model = self.case, self.model
+        case, model, domain = self.case, self.model, self.scene.domain
         model.stop_when_empty &= stop_when_empty
         tic = time.perf_counter()
-        out_dir = prepare_output_dir(out, case.file, force) if out is not None else None
+        mesh = {"file": str(domain.source), "sha256": file_checksum(domain.source), **domain.statistics()}
+        identity = checkpoint.identity(case.config, mesh["sha256"], case["model"]["type"])
+        recorder, position = Recorder(model.columns), {}
+        if resume:  # checked before anything is written
+            state, rows, position = checkpoint.read(out, identity)
+            model.restore(state)
+            recorder.restore(rows)
+            out_dir = Path(out)
+        else:
+            out_dir = prepare_output_dir(out, case.file, force) if out is not None else None
         history = frames = None
-        recorder = Recorder(model.columns)
         if out_dir is not None:
             copy_case(case.file, out_dir)
-            frames = FrameSeries(out_dir, model.stem)
-            history = recorder.sink = HistoryFile(out_dir / "history.csv", recorder.history_columns)
-        domain = self.scene.domain
+            frames = FrameSeries(out_dir, model.stem, position.get("frames"))
+            history = recorder.sink = HistoryFile(out_dir / "history.csv", recorder.history_columns,
+                                                  recorder.records())
         summary = {"femcrowd": __version__, "status": "running", "case": case.config,
-                   "case_file": str(case.file), "output_dir": str(out_dir) if out_dir else None,
-                   "mesh": {"file": str(domain.source), "sha256": file_checksum(domain.source),
-                            **domain.statistics()}}
+                   "case_file": str(case.file), "output_dir": str(out_dir) if out_dir else None, "mesh": mesh}
         timers = {"output": time.perf_counter() - tic}  # output directory, mesh checksum and statistics
+
+        def timing():
+            """Seconds per phase (summed over the parts of a resumed run) and the wall time."""
+            now = {"threads": self.threads_seconds, **self.scene.timing, **dict(model.timers), **timers,
+                   "wall": time.perf_counter() - self._wall}
+            before = position.get("timing", {})
+            return {k: before.get(k, 0.0) + now.get(k, 0.0) for k in {**before, **now}}
 
         def write_frame():
             if frames is not None:
                 tic = time.perf_counter()
                 frames.write(model.t, model.frame())
                 timers["output"] += time.perf_counter() - tic
+
+        def write_checkpoint(next_frame):
+            tic = time.perf_counter()
+            checkpoint.write(out_dir, identity, model.snapshot(), recorder.rows,
+                             {"frames": frames.frames, "next_frame": next_frame, "timing": timing()})
+            timers["output"] += time.perf_counter() - tic
 
         def finish(status):
             tic = time.perf_counter()
@@ -109,8 +129,7 @@ class Simulation:
             recorded = recorder.summary()
             summary.update(status=status, **recorded, **model.summary(recorded))
             timers["output"] += time.perf_counter() - tic
-            summary["timing"] = {"threads": self.threads_seconds, **self.scene.timing, **dict(model.timers), **timers,
-                                 "wall": time.perf_counter() - self._wall}
+            summary["timing"] = timing()
             if out_dir is not None:
                 write_json(out_dir / "summary.json", summary)
             return Result(summary, recorder.history(), model, out_dir)
@@ -118,7 +137,8 @@ class Simulation:
         try:
             with thread_limit(self.threads):
                 drive(model, recorder, case["time"]["end"], case["output"]["every"], write_frame,
-                      stops, on_stop, quiet, timers)
+                      stops, on_stop, quiet, timers, write_checkpoint if out_dir is not None else None,
+                      position.get("next_frame"))
         except KeyboardInterrupt:
             finish("interrupted")
             raise
@@ -129,8 +149,9 @@ class Simulation:
 
 
 def run(case: Case, out=None, force: bool = False, quiet: bool = True, files: bool = True,
-        threads: int = 1) -> Result:
+        threads: int = 1, resume: bool = False) -> Result:
     """Run a case into `out` (relative to the current directory; default: output.dir of the case,
-    relative to the case file), or without writing anything when files is False."""
+    relative to the case file), or without writing anything when files is False; resume: continue
+    the interrupted (or shorter) run in that directory from its checkpoint."""
     simulation = Simulation(case, threads)
-    return simulation.run(case.output_dir(out) if files else None, force, quiet)
+    return simulation.run(case.output_dir(out) if files else None, force, quiet, resume=resume)

@@ -199,6 +199,12 @@ class MicroSimulation:
         vmax = float(np.sqrt((U * U).sum(1)).max()) if self.count else 0.0
         return max(0.5 * rm, 6.0 * self.tau * vmax)
 
+    def restart(self, q, r, ids, u, t: float, nstep: int, evacuated: int) -> None:
+        """Continue from given discs (a checkpoint): the candidate list and the multipliers are rebuilt."""
+        self.q, self.r, self.ids, self.u = (np.array(a) for a in (q, r, ids, u))
+        self.t, self.nstep, self.evacuated = float(t), int(nstep), int(evacuated)
+        self.cl, self.lam, self._C = None, np.zeros(0), None
+
     def constraints(self) -> Constraints:
         if self._C is None:
             self._C = self.cl.constraints(self.q, self.r, self.walls)

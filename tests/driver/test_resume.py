@@ -1,0 +1,135 @@
+"""Runs that resume: a real Ctrl-C at a random step, then `femcrowd run --resume`, gives the final frame,
+history and summary of the uninterrupted run (to round-off); a corrupted or foreign checkpoint is refused
+without touching the output."""
+
+import json
+import random
+import signal
+import subprocess
+import time
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from femcrowd.cli import main
+from femcrowd.driver.reading import read_frame, read_pvd
+
+from ..support import CASES, FEMCROWD, read_history
+
+CASE = CASES / "stress" / "head-on"  # 258 steps, a frame every 0.25 s, collisions: the projection at work
+#: how the solver got there (not the state): a resumed run starts its projection cold, without a warm start
+SOLVER_PATH = {"active_set_iterations", "step_seconds", "linear_residual", "complementarity"}
+
+
+def invoke(*args):
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+def snapshot(directory):
+    return {p.name: (p.read_bytes(), p.stat().st_mtime_ns) for p in sorted(directory.iterdir())}
+
+
+def same_run(a, b, rtol=1e-10):
+    """The histories, the frame times and the last frames of two output directories agree to round-off."""
+    ha, hb = read_history(a / "history.csv"), read_history(b / "history.csv")
+    assert len(ha["time"]) == len(hb["time"])
+    for column in ha:
+        if column not in SOLVER_PATH:
+            scale = max(np.abs(ha[column]).max(), 1e-300)
+            assert np.abs(ha[column] - hb[column]).max() <= rtol * scale + 1e-14, column
+    fa, fb = read_pvd(a / "solution.pvd"), read_pvd(b / "solution.pvd")
+    assert [t for t, _ in fa] == [t for t, _ in fb]
+    last_a, last_b = read_frame(a / fa[-1][1]).cell_data, read_frame(b / fb[-1][1]).cell_data
+    for name in ("density", "pressure"):
+        assert np.allclose(last_a[name][0], last_b[name][0], rtol=0, atol=rtol * max(last_b[name][0].max(), 1))
+    sa, sb = (json.loads((d / "summary.json").read_text()) for d in (a, b))
+    assert sa["status"] == sb["status"] == "completed" and sa["steps"] == sb["steps"]
+    assert sa["evacuated"] == pytest.approx(sb["evacuated"], rel=rtol, abs=1e-14)
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(tmp_path_factory):
+    out = tmp_path_factory.mktemp("whole") / "out"
+    assert invoke("run", CASE, "--out", out, "-q").exit_code == 0
+    return out
+
+
+def test_ctrl_c_at_a_random_step_then_resume(tmp_path, uninterrupted):
+    out = tmp_path / "out"
+    stop_after = random.Random().randint(20, 200)  # history rows before the signal
+    proc = subprocess.Popen([str(FEMCROWD), "run", str(CASE), "--out", str(out), "-q"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        history = out / "history.csv"
+        if history.is_file() and len(history.read_text().splitlines()) > stop_after:
+            break
+        time.sleep(0.01)
+    proc.send_signal(signal.SIGINT)
+    _, stderr = proc.communicate(timeout=300)
+    if proc.returncode == 0:
+        pytest.skip(f"the run ended before the signal (after {stop_after} rows): nothing to resume")
+    assert proc.returncode == 130, stderr
+    interrupted = json.loads((out / "summary.json").read_text())
+    assert interrupted["status"] == "interrupted"
+    assert (out / "checkpoint.npz").is_file()
+    result = invoke("run", CASE, "--out", out, "-q", "--resume")
+    assert result.exit_code == 0, result.output
+    same_run(out, uninterrupted)
+
+
+def test_resume_continues_a_run_to_a_later_end(tmp_path, uninterrupted):
+    """Ended at a frame time (0.5 s), then continued to the case's 1.5 s: the steps of one run to 1.5 s."""
+    out = tmp_path / "out"
+    assert invoke("run", CASE, "--out", out, "-q", "--set", "time.end=0.5").exit_code == 0
+    result = invoke("run", CASE, "--out", out, "-q", "--resume")  # time.end = 1.5 of the case
+    assert result.exit_code == 0, result.output
+    same_run(out, uninterrupted)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["case"]["time"]["end"] == 1.5
+
+
+def test_disc_runs_resume_too(tmp_path):
+    whole, part = tmp_path / "whole", tmp_path / "part"
+    case = CASES / "narrow-door-micro"
+    assert invoke("run", case, "--out", whole, "-q", "--set", "time.end=3").exit_code == 0
+    assert invoke("run", case, "--out", part, "-q", "--set", "time.end=1.5").exit_code == 0
+    assert invoke("run", case, "--out", part, "-q", "--set", "time.end=3", "--resume").exit_code == 0
+    ha, hb = read_history(whole / "history.csv"), read_history(part / "history.csv")
+    assert np.array_equal(ha["time"], hb["time"]) and np.array_equal(ha["count"], hb["count"])
+    a, b = (read_frame(d / read_pvd(d / "discs.pvd")[-1][1]) for d in (whole, part))
+    assert np.abs(a.points - b.points).max() <= 1e-9  # the same discs, to the solver's tolerance
+
+
+@pytest.mark.parametrize("spoil, words", [
+    (lambda out: (out / "checkpoint.npz").write_bytes((out / "checkpoint.npz").read_bytes()[:200]), "corrupted"),
+    (lambda out: (out / "checkpoint.npz").unlink(), "no checkpoint"),
+])
+def test_a_bad_checkpoint_is_refused_and_nothing_changes(tmp_path, spoil, words):
+    out = tmp_path / "out"
+    assert invoke("run", CASE, "--out", out, "-q", "--set", "time.end=0.5").exit_code == 0
+    spoil(out)
+    before = snapshot(out)
+    result = invoke("run", CASE, "--out", out, "-q", "--resume")
+    assert result.exit_code == 2 and result.stderr.count("\n") == 1 and words in result.stderr, result.output
+    assert "--resume" in result.stderr and snapshot(out) == before
+
+
+def test_a_checkpoint_of_another_case_or_mesh_is_refused(tmp_path):
+    case = tmp_path / "case"
+    case.mkdir()
+    mesh = tmp_path / "headon.msh"
+    mesh.write_bytes((CASES.parent / "meshes" / "stress" / "headon.msh").read_bytes())
+    (case / "case.toml").write_text((CASE / "case.toml").read_text().replace("../../../meshes/stress/", "../"))
+    out = tmp_path / "out"
+    assert invoke("run", case, "--out", out, "-q", "--set", "time.end=0.5").exit_code == 0
+    before = snapshot(out)
+    for args, words in ((["--set", "initial.density=0.5"], "another case"), (["--set", "mesh.refine=1"], "another case")):
+        result = invoke("run", case, "--out", out, "-q", "--resume", *args)
+        assert result.exit_code == 2 and words in result.stderr, result.output
+    mesh.write_bytes(mesh.read_bytes() + b"\n")  # the same name, another file
+    result = invoke("run", case, "--out", out, "-q", "--resume")
+    assert result.exit_code == 2 and "another mesh" in result.stderr, result.output
+    assert snapshot(out) == before
