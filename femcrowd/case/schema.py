@@ -61,8 +61,8 @@ SCHEMA = {
     },
     "time": {
         "end": Key(10.0, "number", "end time (s)", low=0, low_open=True),
-        "cfl": Key(0.5, "number", "time step as a fraction of the CFL-1 step of the upwind transport "
-                   "(0.5 for muscl and compressive)", low=0, high=1.0, low_open=True),
+        "cfl": Key(0.5, "number", "time step as a fraction of the CFL-1 step of the upwind transport, in "
+                   "(0, 1] for upwind, (0, 0.5] for muscl and compressive, (0, 100] for implicit"),
         "dt": Key(None, "number", "a fixed time step (s) instead of cfl", low=0, low_open=True),
         "stop_when_empty": Key(True, "bool", "stop once the crowd has left (scenes with exits)"),
         "empty_fraction": Key(1e-4, "number", "the crowd has left when less than this fraction of it is inside",
@@ -91,7 +91,8 @@ SCHEMA = {
     },
     "scheme": {
         "transport": Key("upwind", "choice", "the prediction: order-0 upwind; limited linear reconstruction with "
-                         "SSP-RK2 (muscl) or one Euler stage (compressive)", tuple(TRANSPORTS)),
+                         "SSP-RK2 (muscl) or one Euler stage (compressive); backward-Euler upwind, positive at any "
+                         "time step (implicit)", tuple(TRANSPORTS)),
     },
     "exact": {
         "name": Key(None, "choice", "the exact solution of the case, the reference of femcrowd convergence",

@@ -126,13 +126,12 @@ def initial_discs(case: Case, domain: Domain, exits) -> tuple[np.ndarray, np.nda
 def check_transport_cfl(case: Case, transport) -> None:
     """Refuse a time step beyond the transport's own CFL number (max_cfl: 1 for upwind, beyond
     which densities can become negative; 0.5 for the higher-order transports, beyond which
-    they oscillate).
+    they oscillate; 100 for the implicit one, positive at any step).
 
     transport: the transport object, or its class when the case has no time.dt."""
-    name, limit, dt = case["scheme"]["transport"], transport.max_cfl, case["time"]["dt"]
-    if dt is None and case["time"]["cfl"] > limit:
-        raise InputError(case.file, "time.cfl", case["time"]["cfl"],
-                         f"must be <= {limit:g} with scheme.transport = {name!r}")
+    name, limit, dt, cfl = case["scheme"]["transport"], transport.max_cfl, case["time"]["dt"], case["time"]["cfl"]
+    if not 0 < cfl <= limit:
+        raise InputError(case.file, "time.cfl", cfl, f"must be in (0, {limit:g}] with scheme.transport = {name!r}")
     if dt is not None and dt > limit * transport.max_dt:
         raise InputError(case.file, "time.dt", dt, f"exceeds {limit:g} x the CFL limit "
                          f"{transport.max_dt:.3g} s of the upwind scheme, the most scheme.transport = "

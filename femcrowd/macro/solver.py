@@ -44,7 +44,7 @@ class MacroSolver:
         steady = all(v.steady for v in self.velocities)
         built = self._transports
         if built is None or built[0] is not exits or (not steady and built[1] != state.t):
-            schemes = [self.transport_class(self.domain, exits, v.normal_on_facets(state, exits))
+            schemes = [self.transport_class(self.domain, exits, v.normal_on_facets(state, exits), v.potential(exits))
                        for v in self.velocities]
             self._transports = built = (exits, state.t, schemes)
         return built[2]

@@ -7,7 +7,9 @@ for a speed that depends on it) and the exits open at that time:
   f2t[1] (n oriented f2t[0] -> f2t[1]), what the transport needs;
 - ``at_points(xy, t, exits)``: (m, 2) at points, for the discs of the micro model;
 - ``steady``: True when U changes only with the open exits (the transport is then built once
-  per set of open exits).
+  per set of open exits);
+- ``potential(exits)``: a cell field that decreases downstream, or None (it orders the solves of
+  the implicit transport).
 
 Two kinds, chosen by ``[velocity].type``:
 
@@ -35,6 +37,9 @@ class FieldVelocity:
 
     def at_points(self, xy: np.ndarray, t: float = 0.0, exits=None) -> np.ndarray:
         return np.column_stack([self.ux(xy[:, 0], xy[:, 1], t), self.uy(xy[:, 0], xy[:, 1], t)])
+
+    def potential(self, exits=None):
+        return None
 
     def normal_on_facets(self, state, exits=None) -> np.ndarray:
         """(2, F): U(m_e) . n_e, the same seen from both cells of the facet."""
@@ -64,6 +69,12 @@ class ExitsVelocity:
             cells[ok] = -(self.speed[ok] / norm[ok])[:, None] * grad[ok]
             self._cells[exits.open] = cells
         return self._cells[exits.open]
+
+    def potential(self, exits) -> np.ndarray:
+        """The distance to the open exits per cell (mean of its nodes; cells cut off from every exit last)."""
+        self.cells(exits)
+        d = self.distance[exits.open][self.domain.triangles].mean(axis=1)
+        return np.where(np.isfinite(d), d, -1.0)
 
     def at_points(self, xy: np.ndarray, t: float, exits) -> np.ndarray:
         """U of the triangle containing each point (0 outside the mesh)."""

@@ -1,15 +1,19 @@
 """The prediction step of the macro model: transport schemes, and the registry that names them.
 
-Every scheme is built as ``Scheme(domain, exits, normal_velocity)`` and offers ``step(rho, dt)
--> (rho~, outflow per exit)``, ``max_dt`` (the CFL-1 step of the upwind scheme for this U) and
-``max_cfl`` (the largest fraction of it the scheme accepts). ``TRANSPORTS`` is the one list of
-schemes: ``[scheme] transport`` of a case takes its keys.
+Every scheme is built as ``Scheme(domain, exits, normal_velocity, potential=None)`` (potential: a
+cell field decreasing downstream, when U has one) and offers ``step(rho, dt) -> (rho~, outflow per
+exit)``, ``max_dt`` (the CFL-1 step of the upwind scheme for this U) and ``max_cfl`` (the largest
+fraction of it the scheme accepts). ``TRANSPORTS`` is the one list of schemes: ``[scheme]
+transport`` of a case takes its keys.
 """
 
+from .implicit import ImplicitUpwindTransport
 from .muscl import CompressiveTransport, MUSCLTransport
 from .upwind import UpwindTransport
 
-#: [scheme] transport: order-0 upwind; linear reconstruction + SSP-RK2; the same with one Euler stage
-TRANSPORTS = {"upwind": UpwindTransport, "muscl": MUSCLTransport, "compressive": CompressiveTransport}
+#: [scheme] transport: order-0 upwind; linear reconstruction + SSP-RK2; the same with one Euler stage;
+#: backward-Euler upwind (any time step)
+TRANSPORTS = {"upwind": UpwindTransport, "muscl": MUSCLTransport, "compressive": CompressiveTransport,
+              "implicit": ImplicitUpwindTransport}
 
-__all__ = ["TRANSPORTS", "CompressiveTransport", "MUSCLTransport", "UpwindTransport"]
+__all__ = ["TRANSPORTS", "CompressiveTransport", "ImplicitUpwindTransport", "MUSCLTransport", "UpwindTransport"]

@@ -30,7 +30,7 @@ class MUSCLTransport(UpwindTransport):
     max_cfl = 0.5
     stages = 2
 
-    def __init__(self, domain, exits, normal_velocity):
+    def __init__(self, domain, exits, normal_velocity, potential=None):
         super().__init__(domain, exits, normal_velocity)
         k0, k1 = domain.f2t
         inner = domain.interior

@@ -26,8 +26,9 @@ class UpwindTransport:
 
     max_cfl = 1.0   # largest time.cfl (fraction of max_dt) the scheme accepts
 
-    def __init__(self, domain, exits, normal_velocity):
-        """normal_velocity: (2, F) U.n on each facet seen from f2t[0] and from f2t[1], n oriented k0 -> k1."""
+    def __init__(self, domain, exits, normal_velocity, potential=None):
+        """normal_velocity: (2, F) U.n on each facet seen from f2t[0] and from f2t[1], n oriented k0 -> k1;
+        potential: unused by the explicit schemes."""
         self.domain = domain
         a0, a1 = np.where(exits.wall, 0.0, normal_velocity) * domain.length
         k0, k1 = domain.f2t
