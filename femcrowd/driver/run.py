@@ -38,6 +38,7 @@ class Result:
     history: dict
     model: object
     output_dir: Path = None
+    measurements: dict = None   # measurements.csv as arrays, for a case with [measure] lines or areas
 
     @property
     def state(self):
@@ -77,10 +78,20 @@ class Simulation:
         out_dir = prepare_output_dir(out, case.file, force) if out is not None else None
         history = frames = None
         recorder = Recorder(model.columns)
+        measured = model.measurements.recorder if model.measurements is not None else None
+        sinks = []
         if out_dir is not None:
             copy_case(case.file, out_dir)
             frames = FrameSeries(out_dir, model.stem)
             history = recorder.sink = HistoryFile(out_dir / "history.csv", recorder.history_columns)
+            sinks.append(history)
+            if measured is not None:   # the rows recorded so far (t = 0) first, then one per step
+                measured.sink = HistoryFile(out_dir / "measurements.csv", measured.history_columns)
+                for row in zip(*measured.rows.values()):
+                    measured.sink.append(dict(zip(measured.rows, row)))
+                sinks.append(measured.sink)
+            extra = model.open_files(out_dir)   # e.g. the disc trajectories
+            sinks += extra
         domain = self.scene.domain
         summary = {"femcrowd": __version__, "status": "running", "case": case.config,
                    "case_file": str(case.file), "output_dir": str(out_dir) if out_dir else None,
@@ -95,15 +106,16 @@ class Simulation:
                 timers["output"] += time.perf_counter() - tic
 
         def finish(status):
-            if history is not None:
-                history.close()
+            for sink in sinks:
+                sink.close()
             recorded = recorder.summary()
             summary.update(status=status, **recorded, **model.summary(recorded))
             summary["timing"] = {**self.scene.timing, **dict(model.timers), **timers,
                                  "wall": time.perf_counter() - self._wall}
             if out_dir is not None:
                 write_json(out_dir / "summary.json", summary)
-            return Result(summary, recorder.history(), model, out_dir)
+            return Result(summary, recorder.history(), model, out_dir,
+                          measured.history() if measured is not None else None)
 
         try:
             drive(model, recorder, case["time"]["end"], case["output"]["every"], write_frame,
