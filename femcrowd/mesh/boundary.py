@@ -83,7 +83,6 @@ class Boundary:
     def __init__(self, domain: Domain, schedule=None):
         self.domain = domain
         self._cache = {}
-        self.always = self.exits(domain.exit_names)
         schedule = schedule or {}
         self.changes = sorted({t for spans in schedule.values() for span in spans for t in span if np.isfinite(t)})
         # the open set on each interval [changes[k-1], changes[k]), sampled at a time inside it
@@ -101,8 +100,8 @@ class Boundary:
 
     def at(self, t: float) -> Exits:
         """The exits open at time t."""
-        if not self.changes:
-            return self.always
+        if not self.changes:   # no schedule, or exits that never open: one set for the whole run
+            return self._states[0]
         return self._states[bisect_right(self.changes, t)]
 
     def next_change(self, t: float) -> float:

@@ -190,3 +190,10 @@ def test_micro_line_at_the_exit_counts_the_evacuated_discs():
     result = Simulation(case).run(stop_when_empty=False)
     assert result.history["evacuated"][-1] > 0
     np.testing.assert_array_equal(result.measurements["door_count"], result.history["evacuated"])
+
+
+def test_an_exit_that_never_opens_is_a_wall_for_the_whole_run():
+    sim = Simulation(load_case(CASES / "two-exits", {"time.end": 5.0, "boundary.open": {"exit_narrow": []}}))
+    assert sim.scene.boundary.at(0.0).open == ("exit_wide",) and sim.scene.boundary.at(1e9).open == ("exit_wide",)
+    h = sim.run().history
+    assert np.all(h["evacuated_exit_narrow"] == 0.0) and h["evacuated_exit_wide"][-1] > 0
