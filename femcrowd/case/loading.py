@@ -77,7 +77,7 @@ def load_case(case_dir, overrides=()) -> Case:
     return Case(_resolve(raw, SCHEMA, file, ""), file.resolve())
 
 
-def parse_override(item, file="--set"):
+def parse_override(item: str, file="--set") -> tuple[list, object]:
     """'a.b=value' -> (['a', 'b'], value); the value is read as TOML, else as a string."""
     if "=" not in item:
         raise InputError(file, item, None, "expected --set section.key=value")

@@ -28,7 +28,7 @@ def wall_like(name):
     return name.lower().startswith("wall")
 
 
-def new_case(case_dir, mesh_file):
+def new_case(case_dir, mesh_file) -> Path:
     """Write CASE_DIR/case.toml for the mesh ``mesh_file``; never overwrites. Returns the file."""
     case_dir, mesh_file = Path(case_dir), Path(mesh_file)
     file = case_dir / "case.toml"

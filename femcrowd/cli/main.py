@@ -36,6 +36,16 @@ quiet_option = click.option("-q", "--quiet", is_flag=True, help="No progress bar
 out_option = click.option("--out", type=click.Path(),
                           help="Output directory, relative to the current directory (default: [output].dir "
                                "of the case, relative to the case file).")
+serial_option = click.option("--serial", is_flag=True, help="Run one after the other in this process.")
+scheduler_option = click.option("--scheduler", metavar="ADDRESS",
+                                help="Use this dask scheduler (default: a LocalCluster on this machine's cores).")
+
+
+def study_out_option(name):
+    """--out of a study: its directory, by default [output].dir/<name> of the case."""
+    return click.option("--out", type=click.Path(),
+                        help=f"Directory of the study, relative to the current directory (default: "
+                             f"[output].dir/{name} of the case).")
 
 
 def case_run_options(command):

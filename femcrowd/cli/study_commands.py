@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from ..errors import InputError
-from .main import force_option, main, set_option
+from .main import force_option, main, scheduler_option, serial_option, set_option, study_out_option
 
 
 def _floats(option):
@@ -33,9 +33,9 @@ def _floats(option):
 @click.option("--times", callback=_floats("--times"), metavar="T1,T2,...",
               help="Measure also at these times (the final time always).")
 @set_option
-@click.option("--out", type=click.Path(), help="Report directory (default: [output].dir/convergence).")
-@click.option("--serial", is_flag=True, help="Run the levels one after the other in this process.")
-@click.option("--scheduler", metavar="ADDRESS", help="Use this dask scheduler (default: a LocalCluster).")
+@study_out_option("convergence")
+@serial_option
+@scheduler_option
 @force_option
 def convergence(case_dir, levels, cfl, set_values, times, overrides, out, serial, scheduler, force):
     """Mesh-convergence study of a case: errors against h and against run time.
@@ -63,9 +63,9 @@ def convergence(case_dir, levels, cfl, set_values, times, overrides, out, serial
 @click.option("--set-values", "set_values", multiple=True, required=True, metavar="KEY=V1,V2,...",
               help="Values of a case key, e.g. initial.density=0.4,0.6 (repeatable: all combinations).")
 @set_option
-@click.option("--out", type=click.Path(), help="Sweep directory (default: [output].dir/sweep).")
-@click.option("--serial", is_flag=True, help="Run one after the other in this process.")
-@click.option("--scheduler", metavar="ADDRESS", help="Use this dask scheduler (default: a LocalCluster).")
+@study_out_option("sweep")
+@serial_option
+@scheduler_option
 @force_option
 def sweep(case_dir, set_values, overrides, out, serial, scheduler, force):
     """Run a case for every combination of parameter values (in parallel through dask).

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from .. import __version__
 from ..case import Case
-from ..mesh import file_checksum
+from ..mesh import Domain, file_checksum
 from .loop import drive
 from .macro_model import MacroModel
 from .micro_model import MicroModel
@@ -41,11 +41,11 @@ class Result:
     measurements: dict = None   # measurements.csv as arrays, for a case with [measure] lines or areas
 
     @property
-    def state(self):
+    def state(self):  # MacroState, or the MicroSimulation
         return self.model.state
 
     @property
-    def domain(self):
+    def domain(self) -> Domain:
         return self.model.domain
 
 

@@ -58,7 +58,7 @@ def door_schedule(case: Case, domain: Domain) -> dict:
     return schedule
 
 
-def desired_velocity(case: Case, domain: Domain, boundary: Boundary):
+def desired_velocity(case: Case, domain: Domain, boundary: Boundary) -> FieldVelocity | ExitsVelocity:
     """The [velocity] of the case; for type "exits" the distance field of the exits open at t = 0 is
     computed here (set-up), those of other door states when they first occur."""
     spec = case["velocity"]
@@ -115,7 +115,7 @@ def initial_density(case: Case, domain: Domain) -> np.ndarray:
     return np.minimum(density / rho_max, 1.0)
 
 
-def initial_discs(case: Case, domain: Domain, exits):
+def initial_discs(case: Case, domain: Domain, exits) -> tuple[np.ndarray, np.ndarray]:
     """(q, r) of the disc model: from the CSV of [micro].positions, or sampled without overlap from the
     initial density (clear of the walls and exits of `exits`)."""
     spec = case["micro"]

@@ -4,7 +4,7 @@ of the scheme's own facet fluxes (Raviart, Thomas 1977)."""
 import numpy as np
 
 
-def cell_mean(domain, G, G1=None):
+def cell_mean(domain, G: np.ndarray, G1: np.ndarray | None = None) -> np.ndarray:
     """Cell means (1/|K|) sum_e G_e (m_e - g_K) of the RT0 field with facet fluxes G (oriented k0 -> k1);
     G1, if given, is the flux seen from the cells f2t[1] (for a field that is discontinuous across facets)."""
     k0, k1 = domain.f2t
@@ -18,7 +18,7 @@ def cell_mean(domain, G, G1=None):
     return out / domain.area[:, None]
 
 
-def pressure_velocity(domain, exits, p):
+def pressure_velocity(domain, exits, p: np.ndarray) -> np.ndarray:
     """-grad p per cell, reconstructed from the two-point fluxes G_e = T_e (p_K - p_L) (p_L = 0 across an
     open exit, no flux through walls)."""
     k0, k1 = domain.f2t
@@ -27,7 +27,7 @@ def pressure_velocity(domain, exits, p):
     return cell_mean(domain, exits.transmissibility * (p[k0] - p_far))
 
 
-def actual_velocity(domain, exits, normal_velocity, p):
+def actual_velocity(domain, exits, normal_velocity: np.ndarray, p: np.ndarray) -> np.ndarray:
     """u = U - grad p per cell from the facet fluxes |e| U.n (none through walls) plus the pressure
     fluxes. Hence u.n = 0 on walls and u = 0 where nothing moves (a closed saturated room);
     U(centroid) - grad p would be O(1) wrong there in the cells along the walls, whose U.n the

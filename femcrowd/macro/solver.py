@@ -50,7 +50,7 @@ class MacroSolver:
             self._transports = built = (exits, state.t, schemes)
         return built[2]
 
-    def projection(self, exits):
+    def projection(self, exits) -> tuple:
         """The projection onto {rho <= 1} with these exits (Dirichlet) and the matrix (exits x cells)
         of the pressure outflow through them, built once per set of open exits."""
         if exits.open not in self._projections:

@@ -33,10 +33,10 @@ class FieldVelocity:
         self.domain, self.ux, self.uy = domain, ux, uy
         self.steady = not (ux.depends_on_time or uy.depends_on_time)
 
-    def at_points(self, xy, t=0.0, exits=None):
+    def at_points(self, xy: np.ndarray, t: float = 0.0, exits=None) -> np.ndarray:
         return np.column_stack([self.ux(xy[:, 0], xy[:, 1], t), self.uy(xy[:, 0], xy[:, 1], t)])
 
-    def normal_on_facets(self, state, exits=None):
+    def normal_on_facets(self, state, exits=None) -> np.ndarray:
         """(2, F): U(m_e) . n_e, the same seen from both cells of the facet."""
         a = np.einsum("ij,ij->i", self.at_points(self.domain.midpoint, state.t), self.domain.normal)
         return np.stack([a, a])
@@ -65,12 +65,12 @@ class ExitsVelocity:
             self._cells[exits.open] = cells
         return self._cells[exits.open]
 
-    def at_points(self, xy, t, exits):
+    def at_points(self, xy: np.ndarray, t: float, exits) -> np.ndarray:
         """U of the triangle containing each point (0 outside the mesh)."""
         cell = self.domain.locate(xy)
         return np.where((cell >= 0)[:, None], self.cells(exits)[np.maximum(cell, 0)], 0.0)
 
-    def normal_on_facets(self, state, exits):
+    def normal_on_facets(self, state, exits) -> np.ndarray:
         """(2, F): U_K . n_e for K = f2t[0] and K = f2t[1] (f2t[0] again on the boundary)."""
         k0, k1 = self.domain.f2t
         n, cells = self.domain.normal, self.cells(exits)

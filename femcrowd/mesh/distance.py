@@ -52,7 +52,7 @@ REL_TOL = 1e-6
 BAND = 3.0
 
 
-def exit_distance(points, triangles, exit_edges):
+def exit_distance(points, triangles, exit_edges) -> np.ndarray:
     """Shortest-path length inside the triangulated domain from every mesh node to the nearest exit.
     points (N, 2) float, triangles (M, 3) int, exit_edges (E, 2) int node pairs of the boundary edges that are exits.
     Returns (N,) float; np.inf at nodes with no path to any exit (regions cut off from every exit)."""

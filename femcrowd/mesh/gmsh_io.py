@@ -22,7 +22,7 @@ from .triangles import doubled_areas
 _SOLID = {"tetra", "hexahedron", "wedge", "pyramid", "tetra10", "hexahedron20", "hexahedron27"}
 
 
-def read_mesh(path, case_file):
+def read_mesh(path: Path, case_file) -> skfem.MeshTri:
     """Read a gmsh .msh with meshio and check it is a planar, triangle-only, finite, non-degenerate mesh.
 
     meshio.gmsh.read is called directly: meshio.read prints to stdout and calls
@@ -216,6 +216,6 @@ def _zorder(xy):
     return q[:, 0] | (q[:, 1] << np.uint64(1))
 
 
-def file_checksum(path):
+def file_checksum(path) -> str:
     """sha256 of a file (recorded with the run so that it can be reproduced)."""
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()

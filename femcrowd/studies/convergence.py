@@ -56,7 +56,7 @@ class Task:
     values: dict = field(default_factory=dict)
 
 
-def parse_set_values(items, file="--set-values"):
+def parse_set_values(items, file="--set-values") -> list:
     """['key=v1,v2', 'key=["a, b", "c"]'] -> [(key, [value texts])]: comma-separated values, or a
     TOML array for values that contain commas; each value text is then read as by --set."""
     parsed = []
@@ -78,7 +78,7 @@ def parse_set_values(items, file="--set-values"):
     return parsed
 
 
-def plan_study(case_dir, levels, overrides=(), cfls=(), set_values=(), times=()):
+def plan_study(case_dir, levels: int, overrides=(), cfls=(), set_values=(), times=()) -> tuple:
     """The tasks of a convergence study (every case is loaded and checked here, before any run)."""
     base = load_case(case_dir, overrides)
     exact = exact_solution(base)
@@ -117,7 +117,7 @@ def plan_study(case_dir, levels, overrides=(), cfls=(), set_values=(), times=())
     return base, exact, tasks
 
 
-def run_task(task):
+def run_task(task: Task) -> dict:
     """Run one level to its measurement times; measure against the exact solution when there is one.
 
     Without one, return the states (rho, p per time) so that the client compares with the finest level.
@@ -153,8 +153,8 @@ def _row(state, metrics):
     return {k: v for k, v in state.items() if k not in ("rho", "p")} | metrics
 
 
-def study(case_dir, levels, out=None, overrides=(), cfls=(), set_values=(), times=(), serial=False,
-          scheduler=None, force=False, echo=None):
+def study(case_dir, levels: int, out=None, overrides=(), cfls=(), set_values=(), times=(), serial: bool = False,
+          scheduler: str | None = None, force: bool = False, echo=None) -> tuple[list, str, Path]:
     """Run a convergence study and write its report; returns (rows, report text, output dir)."""
     base, exact, tasks = plan_study(case_dir, levels, overrides, cfls, set_values, times)
     out_dir = prepare_output_dir(base.output_dir(out, "convergence"), base.file, force)
@@ -165,7 +165,7 @@ def study(case_dir, levels, out=None, overrides=(), cfls=(), set_values=(), time
     return rows, text, out_dir
 
 
-def collect_rows(tasks, results):
+def collect_rows(tasks: list, results: list) -> list:
     """One row per run and measurement time; self-convergence rows are measured here against the
     finest level of their series (which itself gets no error)."""
     rows = []
@@ -194,7 +194,7 @@ def collect_rows(tasks, results):
     return rows
 
 
-def observed_orders(rows, metric):
+def observed_orders(rows: list, metric: str) -> dict:
     """log(e_{i-1} / e_i) / log(h_{i-1} / h_i) between consecutive levels of the same series and time."""
     orders = {}
     for _, group in itertools.groupby(sorted(rows, key=lambda r: (r["series"], r["time"], r["level"])),

@@ -9,7 +9,7 @@ from threadpoolctl import threadpool_limits
 from ..errors import InputError
 
 
-def execute(function, tasks, serial=False, scheduler=None, echo=None):
+def execute(function, tasks: list, serial: bool = False, scheduler: str | None = None, echo=None) -> list:
     """function(task) for every task, results in task order; through dask unless serial.
 
     Bigger runs are submitted with higher priority so that the longest one starts first.

@@ -111,7 +111,7 @@ class LevelReference:
         return np.interp(t, self.curve[:, 0], self.curve[:, 1])
 
 
-def measure(domain, state, reference, curve):
+def measure(domain, state: dict, reference, curve) -> dict:
     """All metrics of one state against a reference (see METRICS)."""
     t, rho, p = state["time"], state["rho"], state["p"]
     area = domain.area

@@ -39,7 +39,8 @@ def sweep_task(task):
             "wall": summary["timing"]["wall"], "output_dir": summary["output_dir"]}
 
 
-def sweep(case_dir, set_values, out=None, overrides=(), serial=False, scheduler=None, force=False, echo=None):
+def sweep(case_dir, set_values, out=None, overrides=(), serial: bool = False, scheduler: str | None = None,
+          force: bool = False, echo=None) -> tuple:
     """Run every combination; write sweep.csv and sweep.md in the sweep directory. Returns (rows, text, dir)."""
     base, root, tasks = plan_sweep(case_dir, set_values, out, overrides)
     root = prepare_output_dir(root, base.file, force)

@@ -98,7 +98,7 @@ class MUSCLTransport(UpwindTransport):
         np.maximum(new, 0.0, out=new)
         return new, dt * (self.exit_flux @ f0)
 
-    def facet_flux(self, rho, dt):
+    def facet_flux(self, rho: np.ndarray, dt: float) -> np.ndarray:
         """The mass each facet carries in the step of rho by dt (the mean of the stages' fluxes), for
         measurement lines: it repeats the stages, so step() keeps its cost when nobody measures."""
         net = self._net(rho, dt)[0]
@@ -106,7 +106,7 @@ class MUSCLTransport(UpwindTransport):
             return dt * net
         return 0.5 * dt * (net + self._net(self._euler(rho, dt)[0], dt)[0])
 
-    def step(self, rho, dt):
+    def step(self, rho: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """rho~ (SSP-RK2, or one Euler stage) and the mass that left through each exit during dt."""
         one, out1 = self._euler(rho, dt)
         if self.stages == 1:

@@ -51,7 +51,7 @@ class UpwindTransport:
         with np.errstate(divide="ignore"):
             self.max_dt = float(np.min(domain.area / outflow))  # inf when nothing moves
 
-    def step(self, rho, dt):
+    def step(self, rho: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """rho~ and the mass that left through each exit during dt (array over exits.names).
 
         From its second step on (a time-dependent U makes a new transport every
@@ -80,7 +80,7 @@ class UpwindTransport:
                 rho_t += rho
         return rho_t, dt * (self.exit_rate @ rho)
 
-    def facet_flux(self, rho, dt):
+    def facet_flux(self, rho: np.ndarray, dt: float) -> np.ndarray:
         """The mass each facet carries f2t[0] -> f2t[1] (out of the domain through an exit) in the step of
         rho by dt that step() makes (for measurement lines; step() does not compute it)."""
         k0, k1 = self.domain.f2t
