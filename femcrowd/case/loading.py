@@ -112,6 +112,9 @@ def _resolve(raw, schema, file, prefix):
         key = prefix + name
         if isinstance(spec, dict):
             out[name] = _resolve(raw.get(name, {}), spec, file, key + ".")
+        elif name in raw and spec.kind == "tables":   # an array of tables: each resolved against its keys
+            out[name] = [_resolve(item, spec.items, file, f"{key}[{i}].")
+                         for i, item in enumerate(check_value(spec, raw[name], file, key))]
         elif name in raw:
             out[name] = check_value(spec, raw[name], file, key)
         elif spec.default is REQUIRED:

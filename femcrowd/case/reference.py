@@ -13,10 +13,16 @@ def keys_markdown() -> str:
     for section, spec in SCHEMA.items():
         for name, key in spec.items() if isinstance(spec, dict) else [(None, spec)]:
             dotted = section if name is None else f"{section}.{name}"
-            default = "required" if key.default is REQUIRED else "not set" if key.default is None \
-                else f"`{toml_value(key.default)}`"
-            lines.append(f"| `{dotted}` | {default} | {key.doc.replace('|', '&#124;')} |")
+            lines.append(_row(dotted, key))
+            for item, sub in (key.items or {}).items():   # the keys of each table of an array of tables
+                lines.append(_row(f"{dotted}[].{item}", sub))
     return "\n".join(lines) + "\n"
+
+
+def _row(dotted, key) -> str:
+    default = "required" if key.default is REQUIRED else "not set" if key.default is None \
+        else f"`{toml_value(key.default)}`"
+    return f"| `{dotted}` | {default} | {key.doc.replace('|', '&#124;')} |"
 
 
 if __name__ == "__main__":

@@ -32,6 +32,7 @@ class Key:
     low: float = -math.inf
     high: float = math.inf
     low_open: bool = False
+    items: dict = None   # kind "tables": the keys of each table of the array
 
 
 SCHEMA = {
@@ -42,6 +43,9 @@ SCHEMA = {
     },
     "boundary": {
         "exits": Key([], "strlist", "the physical line groups that are exits; every other boundary edge is a wall"),
+        "open": Key({}, "schedules", "when each exit is open: a table of exit names to lists of [from, to] times "
+                    "(s; to may be inf), e.g. { door = [[0, 10], [30, inf]] }; [] keeps an exit closed; "
+                    "a closed exit is a wall (default: always open)"),
     },
     "model": {
         "type": Key("macro", "choice", '"macro" (a density) or "micro" (rigid discs)', ("macro", "micro")),
@@ -73,6 +77,9 @@ SCHEMA = {
                    "is relative to the current directory)"),
         "every": Key(0.5, "number", "time between frames (s)", low=0, low_open=True),
         "fields": Key(list(FIELDS), "fields", "the cell fields written in the frames"),
+        "trajectory_rate": Key(10.0, "number", "micro runs: frames per second of trajectories.txt (disc "
+                               "trajectories in PedPy's Juelich text format, with walkable_area.wkt)",
+                               low=0, low_open=True),
     },
     "projection": {
         "direct_max": Key(1_000_000, "int", "largest saturated set solved by sparse Cholesky (larger: AMG + CG)",
@@ -98,6 +105,31 @@ SCHEMA = {
         "name": Key(None, "choice", "the exact solution of the case, the reference of femcrowd convergence",
                     tuple(SOLUTIONS)),
         **{name: Key(None, "number", "a parameter of the exact solution") for name in EXACT_PARAMETERS},
+    },
+    "sources": Key([], "tables", "people arriving through a boundary group that is not an exit ([[sources]])",
+                   items={
+                       "boundary": Key(REQUIRED, "str", "the physical line group they enter through"),
+                       "flow": Key(REQUIRED, "number", "persons per metre of the group per second (density unit "
+                                   "x m/s); what cannot enter waits outside (history column queued)", low=0),
+                       "start": Key(0.0, "number", "when they start arriving (s)", low=0),
+                       "end": Key(None, "number", "when they stop arriving (s; default: time.end)", low=0),
+                       "population": Key(None, "str", "the population they join (default: the first)"),
+                   }),
+    "measure": {
+        "lines": Key([], "tables", "counting lines ([[measure.lines]]): flow and cumulative count from left "
+                     "to right of from -> to, in measurements.csv",
+                     items={
+                         "name": Key(REQUIRED, "name", "the line's name (columns <name>_flow, <name>_count)"),
+                         "from": Key(REQUIRED, "point", "first end [x, y] (m)"),
+                         "to": Key(REQUIRED, "point", "second end [x, y] (m)"),
+                     }),
+        "areas": Key([], "tables", "measurement areas ([[measure.areas]]): mean density, mean speed and max "
+                     "pressure in a polygon, in measurements.csv",
+                     items={
+                         "name": Key(REQUIRED, "name", "the area's name (columns <name>_density, <name>_speed, "
+                                     "<name>_pressure)"),
+                         "polygon": Key(REQUIRED, "polygon", "its corners [[x, y], ...] (m), a simple polygon"),
+                     }),
     },
     "convergence": {
         "meshes": Key([], "strlist", "mesh files of a refinement series, instead of mesh.refine"),
@@ -170,4 +202,35 @@ def check_value(spec: Key, value, file, key: str):
         if not ok:
             fail("expected a positive number or [min, max]")
         return value
+    if kind == "name":
+        if not isinstance(value, str) or not value.replace("_", "").replace("-", "").isalnum():
+            fail("expected a name of letters, digits, _ and -")
+        return value
+    if kind == "point":
+        if not _point(value):
+            fail("expected a point [x, y]")
+        return [float(v) for v in value]
+    if kind == "polygon":
+        if not isinstance(value, list) or len(value) < 3 or not all(_point(p) for p in value):
+            fail("expected a polygon [[x, y], ...] of at least 3 points")
+        return [[float(v) for v in p] for p in value]
+    if kind == "schedules":
+        if not isinstance(value, dict):
+            fail("expected a table of exit names to lists of [from, to] times")
+        for name, spans in value.items():
+            ok = isinstance(spans, list) and all(
+                isinstance(s, list) and len(s) == 2 and all(is_number(v) and not math.isnan(v) for v in s)
+                and 0 <= s[0] < s[1] and math.isfinite(s[0]) for s in spans)
+            if not ok:
+                raise InputError(file, f"{key}.{name}", spans, "expected a list of [from, to] pairs of times "
+                                 "with 0 <= from < to (to may be inf)")
+        return {name: [[float(a), float(b)] for a, b in spans] for name, spans in value.items()}
+    if kind == "tables":
+        if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
+            fail("expected an array of tables")
+        return value   # each table is resolved against spec.items by case.loading
     raise AssertionError(kind)
+
+
+def _point(value) -> bool:
+    return isinstance(value, list) and len(value) == 2 and all(is_number(v) and math.isfinite(v) for v in value)

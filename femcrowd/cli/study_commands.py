@@ -2,6 +2,7 @@
 
 import sys
 import time
+from pathlib import Path
 
 import click
 
@@ -124,3 +125,41 @@ def stress(out, only, cases, force, checks):
                f"table: {root / 'stress.md'}, {root / 'stress.csv'}; runs: {root}/<scene>")
     if passed < len(results):
         sys.exit(1)
+
+
+@main.command()
+@click.option("--out", type=click.Path(), default="rimea-output", show_default=True,
+              help="Directory for the runs (OUT/<case>-<model>) and the table rimea.md, relative to the current "
+                   "directory.")
+@click.option("--only", multiple=True, metavar="TEST", help="Run only this RiMEA test, by number (repeatable).")
+@click.option("--model", "models", multiple=True, type=click.Choice(["macro", "micro"]),
+              help="Run only this model (repeatable; default: both).")
+def rimea(out, only, models):
+    """Run the RiMEA verification tests of cases/rimea with both models and print the table.
+
+    Tests 1 (corridor), 6 (corner), 9 (four doors, then two), 11 (exit
+    choice) and 12 (bottlenecks) of the RiMEA guideline, as docs/rimea.md
+    describes them: the criterion as RiMEA states it, the macro and the
+    disc model's result, pass or fail. A failed verdict is a result (the
+    docs say where a model cannot meet a criterion, and why), not an error.
+
+    \b
+    Examples:
+      femcrowd rimea
+      femcrowd rimea --only 9 --model macro --out /tmp/rimea
+    """
+    from ..studies import rimea as rm
+
+    tic = time.perf_counter()
+    try:
+        rm.select(only)
+    except ValueError as err:
+        raise click.BadParameter(str(err), param_hint="--only") from None
+    rows = rm.run_all(only, models or rm.MODELS, out=out, echo=click.echo)
+    table = rm.table_markdown(rows)
+    Path(out).mkdir(parents=True, exist_ok=True)
+    (Path(out) / "rimea.md").write_text(table)
+    click.echo("\n" + table)
+    failed = sum(not v.passed for _, verdicts in rows for v, _ in verdicts.values())
+    click.echo(f"{len(rows)} tests, {failed} failed verdicts, in {time.perf_counter() - tic:.0f} s; "
+               f"table: {Path(out) / 'rimea.md'}; runs: {out}/<case>-<model>")

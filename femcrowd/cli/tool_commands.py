@@ -54,28 +54,55 @@ def plot(outdir, times, no_animation, mp4, out, quiet):
     click.echo(f"{len(written)} files in {Path(written[0]).parent if written else outdir}")
 
 
+def _segment(value):
+    """--exit NAME=X0,Y0,X1,Y1 -> (name, (x0, y0), (x1, y1))."""
+    try:
+        name, numbers = value.split("=", 1)
+        x0, y0, x1, y1 = (float(v) for v in numbers.split(","))
+    except ValueError:
+        raise click.BadParameter(f"{value!r} is not NAME=X0,Y0,X1,Y1", param_hint="--exit") from None
+    return name.strip(), (x0, y0), (x1, y1)
+
+
 @main.command()
 @click.argument("geometry", type=click.Path())
 @click.option("-o", "--out", type=click.Path(), help="The .msh file (default: GEOMETRY with .msh).")
 @click.option("--exit-size", type=click.FloatRange(min=0, min_open=True), metavar="H",
               help="Cell size near every exit (m), overriding the exits' own 'size' keys.")
-def mesh(geometry, out, exit_size):
-    """Mesh the floor plan GEOMETRY (a .toml file) with gmsh.
+@click.option("--size", type=click.FloatRange(min=0, min_open=True), default=0.2, show_default=True, metavar="H",
+              help="DXF and WKT plans: the cell size (m).")
+@click.option("--walls-layer", default="walls", show_default=True, help="DXF: the layer of the outline.")
+@click.option("--obstacles-layer", default="obstacles", show_default=True, help="DXF: the layer of the obstacles.")
+@click.option("--door-layers", default="exit,entrance", show_default=True, metavar="PREFIX[,PREFIX...]",
+              help="DXF: layers whose names start with one of these hold named boundary segments (exits, "
+                   "entrances), one group per layer.")
+@click.option("--exit", "exits", multiple=True, metavar="NAME=X0,Y0,X1,Y1",
+              help="DXF and WKT plans: a named boundary segment on the outline (repeatable).")
+def mesh(geometry, out, exit_size, size, walls_layer, obstacles_layer, door_layers, exits):
+    """Mesh the floor plan GEOMETRY (.toml, .dxf or .wkt) with gmsh.
 
-    The floor plan gives the outer polygon, holes (polygons or circles),
-    named exit segments and the cell size (format: femcrowd/geometry.py and
-    the shipped meshes/*.toml). The .msh has one boundary group per exit
-    name and "wall" for the rest, ready for a case (femcrowd new).
+    A TOML floor plan gives the outer polygon, holes (polygons or circles),
+    named exit segments and the cell size (format: femcrowd/mesh/floorplan.py
+    and the shipped meshes/*.toml). A DXF drawing names them by layers:
+    the outline on the walls layer, obstacles on theirs, exits and
+    entrances on layers named exit*, entrance* (closed polylines, lines,
+    arcs, circles). A WKT file holds one POLYGON (JuPedSim's walkable
+    area), its exits given with --exit. The .msh has one boundary group
+    per exit name and "wall" for the rest, ready for a case (femcrowd new).
 
     \b
     Examples:
       femcrowd mesh meshes/room_one_door.toml
       femcrowd mesh plan.toml -o /tmp/plan.msh --exit-size 0.05
+      femcrowd mesh plan.dxf --size 0.25 --walls-layer WALLS
+      femcrowd mesh area.wkt --exit exit=10,2.5,10,3.5
     """
     from ..mesh import load_domain
     from ..mesh.floorplan import build_mesh
 
-    path = build_mesh(geometry, out, exit_size)
+    cad = {"walls": walls_layer, "obstacles": obstacles_layer, "size": size,
+           "doors": [p.strip() for p in door_layers.split(",") if p.strip()], "exits": [_segment(e) for e in exits]}
+    path = build_mesh(geometry, out, exit_size, cad=cad)
     stats = load_domain(path).statistics()
     groups = ", ".join(f"{name} {length:.3g} m" for name, length in stats["boundary_groups"].items())
     click.echo(f"wrote {path}: {stats['triangles']} triangles, h in [{stats['h_min']:.3g}, {stats['h_max']:.3g}] m, "

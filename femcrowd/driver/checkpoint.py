@@ -66,5 +66,18 @@ def read(directory, identity: dict) -> tuple[dict, dict, dict]:
     return state, rows, meta["position"]
 
 
+def parts(**components) -> dict:
+    """The snapshots of a model's components (sources, measurements), their keys prefixed by the name."""
+    return {f"{name}.{k}": v for name, part in components.items() if part is not None
+            for k, v in part.snapshot().items()}
+
+
+def restore_parts(data: dict, **components) -> None:
+    """Give each component its part of a snapshot made by parts()."""
+    for name, part in components.items():
+        if part is not None:
+            part.restore({k[len(name) + 1:]: v for k, v in data.items() if k.startswith(name + ".")})
+
+
 def identity(case_config: dict, mesh_sha256: str, model: str) -> dict:
     return {"femcrowd": __version__, "model": model, "mesh": mesh_sha256, "case": case_key(case_config)}

@@ -7,9 +7,15 @@ import numpy as np
 from ..linalg.vectors import dot
 from ..macro import MacroSolver, MacroState
 from ..macro.diagnostics import invariants
+from .checkpoint import parts, restore_parts
+from .measurements import MacroMeasurements
 from .output import triangle_frame
 from .recorder import Column
 from .scene import Scene, check_transport_cfl, initial_density
+from .sources import MacroSources
+
+#: the history columns of a run with [[sources]]: cumulative mass that entered, mass waiting outside
+SOURCE_COLUMNS = [Column("inflow", (("inflow", "last"),)), Column("queued", (("queued", "last"),))]
 
 
 def macro_columns(exit_names) -> list:
@@ -57,10 +63,28 @@ class MacroModel:
         check_transport_cfl(case, self.solver.transports(self.state, exits)[0])
         scene.timing["assembly"] = time.perf_counter() - tic
         self.initial_mass = self.mass
-        self.empty_mass = case["time"]["empty_fraction"] * self.initial_mass
+        self.empty_fraction = case["time"]["empty_fraction"]
         self.stop_when_empty = case["time"]["stop_when_empty"] and bool(domain.exit_group)
         self.evacuation_time = None   # the first time with less than empty_mass inside (scenes with exits)
         self.columns = macro_columns(domain.exit_names)
+        self.sources = self.measurements = None   # hooks only for the scenes that have them
+        if scene.sources:
+            self.sources = MacroSources(case, scene.sources, domain, self.state.populations)
+            self.solver.before_step.append(self.sources)
+            self.columns += SOURCE_COLUMNS
+            self.last_arrival = max(source.end for source in scene.sources)
+        if scene.lines or scene.areas:
+            self.measurements = MacroMeasurements(scene.lines, scene.areas, domain, self.rho_max)
+            self.measurements.attach(self.solver, self.state)
+
+    @property
+    def inflow(self) -> float:
+        """Mass that entered through the sources so far (units of rho_max x m^2)."""
+        return self.sources.inflow if self.sources is not None else 0.0
+
+    @property
+    def empty_mass(self) -> float:
+        return self.empty_fraction * (self.initial_mass + self.inflow)
 
     @property
     def t(self) -> float:
@@ -83,13 +107,17 @@ class MacroModel:
         d = invariants(self.domain, self.state)
         if info is None:
             info = {"dt": 0.0, "active_set_iterations": 0, "linear_residual": 0.0, "step_seconds": 0.0}
-        elif self.evacuation_time is None and self.domain.exit_group and d["mass"] <= self.empty_mass:
+        elif self.evacuation_time is None and self.domain.exit_group and d["mass"] <= self.empty_mass \
+                and not self.arriving():
             self.evacuation_time = self.state.t
         self.inside = d["mass"]
         r = self.rho_max
-        error = abs(d["mass"] + d["evacuated"] - self.initial_mass) / max(self.initial_mass, 1e-300)
+        supplied = self.initial_mass + self.inflow
+        error = abs(d["mass"] + d["evacuated"] - supplied) / max(supplied, 1e-300)
         by_exit = {f"evacuated_{name}": float(v) * r
                    for name, v in zip(self.domain.exit_names, self.state.evacuated.sum(axis=0))}
+        if self.sources is not None:
+            by_exit.update(inflow=self.inflow * r, queued=self.sources.queued * r)
         return {**by_exit, "time": self.state.t, "dt": info["dt"], "mass": d["mass"] * r,
                 "evacuated": d["evacuated"] * r, "max_density": d["max_density"] * r,
                 "saturated_area": d["saturated_area"], "max_pressure": d["max_pressure"],
@@ -101,7 +129,11 @@ class MacroModel:
 
     def empty(self) -> bool:
         """Has the crowd left (less than time.empty_fraction of it inside), in a scene that stops then?"""
-        return self.stop_when_empty and self.inside <= self.empty_mass
+        return self.stop_when_empty and self.inside <= self.empty_mass and not self.arriving()
+
+    def arriving(self) -> bool:
+        """Are people still arriving or waiting at a source?"""
+        return self.sources is not None and (self.state.t < self.last_arrival or self.sources.queued > 0)
 
     def frame(self):
         """The cell fields asked for in [output].fields, in user units, on the triangles."""
@@ -112,13 +144,16 @@ class MacroModel:
             data["pressure"] = self.state.p
         if "velocity" in self.fields:
             data["velocity"] = self.solver.velocity_field(self.state)
+        if self.measurements is not None:
+            data["max_density"] = self.measurements.max_density
         return triangle_frame(self.domain, data)
 
     def snapshot(self) -> dict:
         """The state to continue from (a checkpoint): arrays and numbers."""
         st = self.state
         return {"rho": st.rho, "p": st.p, "evacuated": st.evacuated, "t": st.t, "steps": st.steps,
-                "evacuation_time": np.nan if self.evacuation_time is None else self.evacuation_time}
+                "evacuation_time": np.nan if self.evacuation_time is None else self.evacuation_time,
+                **parts(sources=self.sources, measure=self.measurements)}
 
     def restore(self, data: dict) -> None:
         """Continue from a snapshot."""
@@ -126,7 +161,12 @@ class MacroModel:
         st.rho, st.p, st.evacuated = data["rho"].copy(), data["p"].copy(), data["evacuated"].copy()
         st.t, st.steps = float(data["t"]), int(data["steps"])
         self.evacuation_time = None if np.isnan(data["evacuation_time"]) else float(data["evacuation_time"])
+        restore_parts(data, sources=self.sources, measure=self.measurements)
         self.row()  # the mass inside, for the empty check
+
+    def open_files(self, directory, resume: bool = False) -> list:
+        """Files the model writes itself as the run goes (none: frames and tables are the driver's)."""
+        return []
 
     def summary(self, recorded: dict) -> dict:
         """What the summary adds to the recorder's entries."""

@@ -13,9 +13,13 @@ from types import SimpleNamespace
 import numpy as np
 
 from ..micro import MicroSimulation
+from .checkpoint import parts, restore_parts
+from .measurements import MicroMeasurements
 from .output import disc_frame
 from .recorder import Column
 from .scene import Scene, initial_discs
+from .sources import MicroSources
+from .trajectories import TrajectoryFile
 
 MICRO_COLUMNS = [
     Column("time", (("final_time", "last"),)),
@@ -35,25 +39,36 @@ class MicroModel:
     """A MicroSimulation of the scene's discs; rows of diagnostics, disc frames."""
 
     stem = "discs"  # the frame series: discs.pvd
-    columns = MICRO_COLUMNS
 
     def __init__(self, scene: Scene):
         case, domain, boundary = scene.case, scene.domain, scene.boundary
-        self.domain = domain
+        self.domain, self.boundary = domain, boundary
         tic = time.perf_counter()
-        exits = boundary.at(0.0)
+        exits = self.exits = boundary.at(0.0)
         q, r = initial_discs(case, domain, exits)
         velocity = scene.velocity
         speed = np.hypot(*velocity.at_points(domain.centroid, 0.0, exits).T).max()
+        self.r_min = float(r.min()) if len(r) else float(np.min(case["micro"]["radius"]))
         tau = case["time"]["dt"]
         if tau is None:
-            tau = case["time"]["cfl"] * r.min() / speed if speed > 0 else case["output"]["every"]
+            tau = case["time"]["cfl"] * self.r_min / speed if speed > 0 else case["output"]["every"]
         self.tau = tau
         self.sim = MicroSimulation(q, r, exits.segments("wall"), exits.segments("exit"),
                                    lambda xy, t: velocity.at_points(xy, t, boundary.at(t)), tau,
                                    method=case["micro"]["method"])
+        self.columns = MICRO_COLUMNS
+        self.sources = self.measurements = self.trajectories = None   # only for the scenes that have them
+        if scene.sources:
+            self.sources = MicroSources(case, scene.sources, domain, case["micro"]["radius"],
+                                        exits.segments("wall"), case["micro"]["seed"])
+            self.columns = MICRO_COLUMNS + [Column("inflow", (("inflow", "last"),)),
+                                            Column("queued", (("queued", "last"),))]
+            self.last_arrival = max(source.end for source in scene.sources)
+        if scene.lines or scene.areas:
+            self.measurements = MicroMeasurements(scene.lines, scene.areas, case["model"]["rho_max"])
+            self.measurements.start(self.sim)
+        self.trajectory_rate = case["output"]["trajectory_rate"]
         scene.timing["discs"] = time.perf_counter() - tic
-        self.r_min = float(r.min())
         self.stop_when_empty = case["time"]["stop_when_empty"] and bool(domain.exit_group)
         self.evacuation_time = None
         self.last = None   # the last step's StepInfo (positions, velocities, pressures of its discs)
@@ -71,13 +86,25 @@ class MicroModel:
     def step(self, until: float):
         """One step, not beyond `until` (a shorter one lands exactly on it); its StepInfo."""
         sim = self.sim
+        until = min(until, self.boundary.next_change(sim.t))   # steps land on the door changes
+        exits = self.boundary.at(sim.t)
+        if exits is not self.exits:   # a door closed or opened: walls and exits follow
+            sim.set_boundary(exits.segments("wall"), exits.segments("exit"))
+            self.exits = exits
         sim.tau = min(self.tau, until - sim.t)
         tic = time.perf_counter()
+        if self.sources is not None:
+            sim.add(*self.sources.arrivals(sim.t, sim.tau, sim.q, sim.r))
+        before = sim.q if self.measurements is not None else None
         info = sim.step()
         self.timers["step"] += time.perf_counter() - tic
         if until - sim.t < 1e-12 * max(1.0, until):
             sim.t = until
         sim.tau = self.tau
+        if self.measurements is not None:
+            self.measurements.record(before, sim, info)
+        if self.trajectories is not None:
+            self.trajectories.step(sim.t, info.dt, info.ids, info.q, info.u)
         self.last = info
         if info.count == 0 and self.evacuation_time is None and self.domain.exit_group:
             self.evacuation_time = sim.t
@@ -87,13 +114,24 @@ class MicroModel:
         """The diagnostics of a step (info: its StepInfo; None: the initial discs)."""
         sim = self.sim
         outside = int(np.count_nonzero(self.domain.locate(sim.q) < 0))
+        arrivals = {} if self.sources is None else {"inflow": self.sources.inflow, "queued": self.sources.queued}
         if info is None:
-            return {"time": sim.t, "dt": 0.0, "count": sim.count, "evacuated": 0, "contacts": 0,
-                    "max_overlap": 0.0, "solver_iterations": 0, "step_seconds": 0.0, "kkt": 0.0, "outside": outside}
-        return {**info.row(), "time": sim.t, "outside": outside}
+            return {"time": sim.t, "dt": 0.0, "count": sim.count, "evacuated": 0, "contacts": 0, "max_overlap": 0.0,
+                    "solver_iterations": 0, "step_seconds": 0.0, "kkt": 0.0, "outside": outside, **arrivals}
+        return {**info.row(), "time": sim.t, "outside": outside, **arrivals}
 
     def empty(self) -> bool:
-        return self.stop_when_empty and self.sim.count == 0
+        arriving = self.sources is not None and (self.sim.t < self.last_arrival or self.sources.queued > 0)
+        return self.stop_when_empty and self.sim.count == 0 and not arriving
+
+    def open_files(self, directory, resume: bool = False) -> list:
+        """The trajectories of the discs (PedPy's Juelich text format) and the walkable area (WKT); a resumed
+        run keeps the frames written before its checkpoint."""
+        self.trajectories = TrajectoryFile(directory, self.trajectory_rate, self.domain,
+                                           self.resumed_frame if resume else None)
+        if not resume:
+            self.trajectories.start(self.sim.t, self.sim.ids, self.sim.q)
+        return [self.trajectories]
 
     def frame(self):
         """The discs with radius, velocity and pressure (t = 0: desired velocities, no contact forces yet)."""
@@ -108,13 +146,18 @@ class MicroModel:
         sim, last = self.sim, self.last
         pressure = last.pressure if last is not None else np.zeros(sim.count)
         return {"q": sim.q, "r": sim.r, "ids": sim.ids, "u": sim.u, "pressure": pressure, "t": sim.t,
-                "steps": sim.nstep, "evacuated": sim.evacuated,
-                "evacuation_time": np.nan if self.evacuation_time is None else self.evacuation_time}
+                "steps": sim.nstep, "evacuated": sim.evacuated, "next_id": sim._next_id,
+                "evacuation_time": np.nan if self.evacuation_time is None else self.evacuation_time,
+                **parts(sources=self.sources, measure=self.measurements),
+                **({} if self.trajectories is None else {"trajectory_frame": self.trajectories.frame})}
 
     def restore(self, data: dict) -> None:
         """Continue from a snapshot."""
         sim = self.sim
-        sim.restart(data["q"], data["r"], data["ids"], data["u"], data["t"], data["steps"], data["evacuated"])
+        sim.restart(data["q"], data["r"], data["ids"], data["u"], data["t"], data["steps"], data["evacuated"],
+                    data["next_id"])
+        restore_parts(data, sources=self.sources, measure=self.measurements)
+        self.resumed_frame = int(data["trajectory_frame"]) if "trajectory_frame" in data else None
         self.evacuation_time = None if np.isnan(data["evacuation_time"]) else float(data["evacuation_time"])
         self.last = SimpleNamespace(q=sim.q, r=sim.r, u=sim.u, pressure=data["pressure"].copy())
 

@@ -25,7 +25,7 @@ log = logging.getLogger("femcrowd")
 MARKER = ".femcrowd-run"
 #: the files of a run: cleared when a new run replaces an old one
 RUN_FILES = ("solution_*.vtu", "discs_*.vtu", "solution.pvd", "discs.pvd", "history.csv", "summary.json",
-             "case.toml", "checkpoint.npz")
+             "case.toml", "checkpoint.npz", "measurements.csv", "trajectories.txt", "walkable_area.wkt")
 
 
 def prepare_output_dir(path, case_file, force=False) -> Path:

@@ -40,6 +40,7 @@ class Result:
     history: dict
     model: object
     output_dir: Path = None
+    measurements: dict = None   # measurements.csv as arrays, for a case with [measure] lines or areas
 
     @property
     def state(self):  # MacroState, or the MicroSimulation
@@ -93,12 +94,20 @@ class Simulation:
             out_dir = Path(out)
         else:
             out_dir = prepare_output_dir(out, case.file, force) if out is not None else None
-        history = frames = None
+        frames = None
+        measured = model.measurements.recorder if model.measurements is not None else None
+        sinks = []
         if out_dir is not None:
             copy_case(case.file, out_dir)
             frames = FrameSeries(out_dir, model.stem, position.get("frames"))
             history = recorder.sink = HistoryFile(out_dir / "history.csv", recorder.history_columns,
                                                   recorder.records())
+            sinks.append(history)
+            if measured is not None:   # the rows recorded so far first, then one per step
+                measured.sink = HistoryFile(out_dir / "measurements.csv", measured.history_columns,
+                                            measured.records())
+                sinks.append(measured.sink)
+            sinks += model.open_files(out_dir, resume)   # e.g. the disc trajectories
         summary = {"femcrowd": __version__, "status": "running", "case": case.config,
                    "case_file": str(case.file), "output_dir": str(out_dir) if out_dir else None, "mesh": mesh}
         timers = {"output": time.perf_counter() - tic}  # output directory, mesh checksum and statistics
@@ -124,15 +133,16 @@ class Simulation:
 
         def finish(status):
             tic = time.perf_counter()
-            if history is not None:
-                history.close()
+            for sink in sinks:
+                sink.close()
             recorded = recorder.summary()
             summary.update(status=status, **recorded, **model.summary(recorded))
             timers["output"] += time.perf_counter() - tic
             summary["timing"] = timing()
             if out_dir is not None:
                 write_json(out_dir / "summary.json", summary)
-            return Result(summary, recorder.history(), model, out_dir)
+            return Result(summary, recorder.history(), model, out_dir,
+                          measured.history() if measured is not None else None)
 
         try:
             with thread_limit(self.threads):

@@ -15,17 +15,23 @@ from ..errors import InputError
 from ..macro.velocity import ExitsVelocity, FieldVelocity
 from ..mesh import Boundary, Domain, load_domain
 from ..micro.sampling import read_discs_csv, sample_discs
+from .measurements import read_measurements
+from .sources import read_sources
 
 
 @dataclass
 class Scene:
-    """The case, its domain, the exits over time (boundary), the desired velocity and the set-up times."""
+    """The case, its domain, the exits over time (boundary), the desired velocity, the set-up times, and the
+    sources, measurement lines and areas (empty lists when the case has none)."""
 
     case: Case
     domain: Domain
     boundary: Boundary
     velocity: object
     timing: dict = field(default_factory=dict)
+    sources: list = field(default_factory=list)
+    lines: list = field(default_factory=list)
+    areas: list = field(default_factory=list)
 
 
 def build_scene(case: Case) -> Scene:
@@ -33,11 +39,23 @@ def build_scene(case: Case) -> Scene:
     tic = time.perf_counter()
     domain = load_domain(case.path(case["mesh"]["file"]), case["boundary"]["exits"],
                          case["mesh"]["refine"], case.file)
-    boundary = Boundary(domain)
+    boundary = Boundary(domain, door_schedule(case, domain))
+    sources = read_sources(case, domain)
+    lines, areas = read_measurements(case, domain)
     toc = time.perf_counter()
     velocity = desired_velocity(case, domain, boundary)
     return Scene(case, domain, boundary, velocity,
-                 {"mesh": toc - tic, "desired_velocity": time.perf_counter() - toc})
+                 {"mesh": toc - tic, "desired_velocity": time.perf_counter() - toc}, sources, lines, areas)
+
+
+def door_schedule(case: Case, domain: Domain) -> dict:
+    """[boundary.open], its names checked against the exits."""
+    schedule = case["boundary"]["open"]
+    for name, spans in schedule.items():
+        if name not in domain.exit_names:
+            raise InputError(case.file, f"boundary.open.{name}", spans, "is not an exit (boundary.exits: "
+                             f"{', '.join(domain.exit_names) or 'none'})")
+    return schedule
 
 
 def desired_velocity(case: Case, domain: Domain, boundary: Boundary) -> FieldVelocity | ExitsVelocity:
@@ -117,7 +135,7 @@ def initial_discs(case: Case, domain: Domain, exits) -> tuple[np.ndarray, np.nda
     q, r = sample_discs(lambda xy: rho[np.maximum(domain.locate(xy), 0)], domain.points,
                         domain.triangles, spec["radius"], spec["count"],
                         walls=exits.segments("wall"), exits=exits.segments("exit"), seed=spec["seed"])
-    if len(q) == 0:
+    if len(q) == 0 and not case["sources"]:
         raise InputError(case.file, "initial.density", case["initial"]["density"],
                          "gives no discs (an empty crowd)")
     return q, r

@@ -38,6 +38,7 @@ class MacroSolver:
         self.timers = defaultdict(float)
         self._projections = {}    # per set of open exits: (Projection, outflow matrix of the pressure flux)
         self._transports = None   # (exits, t, one transport per population)
+        self._open = None         # the open exits of the last projection (a door that changed: no warm start)
 
     def transports(self, state: MacroState, exits) -> list:
         """The transport of each population at the state's time, on these exits."""
@@ -55,6 +56,9 @@ class MacroSolver:
         if exits.open not in self._projections:
             projection = Projection(self.domain, exits, self.direct_max, self.tol, order=self.order)
             self._projections[exits.open] = (projection, exits.outflow_matrix(exits.transmissibility))
+        elif exits.open != self._open:   # back to a door state met before: its S and phi are stale
+            self._projections[exits.open][0].warm.forget()
+        self._open = exits.open
         return self._projections[exits.open]
 
     def stable_dt(self, state: MacroState) -> float:
@@ -78,6 +82,7 @@ class MacroSolver:
         exits = self.boundary.at(state.t)
         schemes = self.transports(state, exits)
         dt = self.stable_dt(state)
+        until = min(until, self.boundary.next_change(state.t))   # steps land on the door changes
         t_new = state.t + dt
         if t_new >= until:
             dt, t_new = until - state.t, until

@@ -8,6 +8,8 @@ out one :class:`Exits` object per set and the solvers cache what they build
 on it.
 """
 
+from bisect import bisect_right
+
 import numpy as np
 import scipy.sparse as sp
 
@@ -72,13 +74,22 @@ class Exits:
 class Boundary:
     """The exits of a domain over time: ``at(t)`` is the :class:`Exits` open at t, one object per set.
 
-    Every exit is always open for now; the door schedules of a case will choose the set here.
+    schedule: ``[boundary.open]``, exit name -> [[from, to], ...]: the exit is open for from <= t < to
+    (a closed exit is a wall); exits without a schedule are always open. The open set is constant
+    between the schedule's change times, so it is tabulated once per interval; without a schedule
+    ``at`` returns the one object of all exits, with no work per call.
     """
 
-    def __init__(self, domain: Domain):
+    def __init__(self, domain: Domain, schedule=None):
         self.domain = domain
         self._cache = {}
-        self.always = self.exits(domain.exit_names)
+        schedule = schedule or {}
+        self.changes = sorted({t for spans in schedule.values() for span in spans for t in span if np.isfinite(t)})
+        # the open set on each interval [changes[k-1], changes[k]), sampled at a time inside it
+        starts = [0.0, *self.changes]
+        self._states = [self.exits([name for name in domain.exit_names
+                                    if name not in schedule or any(a <= t < b for a, b in schedule[name])])
+                        for t in starts]
 
     def exits(self, open_names) -> Exits:
         """The Exits object of a set of open exits (built once per set)."""
@@ -89,4 +100,13 @@ class Boundary:
 
     def at(self, t: float) -> Exits:
         """The exits open at time t."""
-        return self.always
+        if not self.changes:   # no schedule, or exits that never open: one set for the whole run
+            return self._states[0]
+        return self._states[bisect_right(self.changes, t)]
+
+    def next_change(self, t: float) -> float:
+        """The first time after t at which the set of open exits may change (inf: never); steps land on it."""
+        if not self.changes:
+            return np.inf
+        k = bisect_right(self.changes, t)
+        return self.changes[k] if k < len(self.changes) else np.inf

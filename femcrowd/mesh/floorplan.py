@@ -173,6 +173,12 @@ def _read(file):
         raise r.error(None, None, f"TOML syntax error: {e}") from None
     except OSError as e:
         raise r.error(None, None, f"cannot read the geometry file: {e.strerror}") from None
+    return _check(data, r)
+
+
+def _check(data, r):
+    """Check a floor plan given as the parsed TOML (or the same tables made from a CAD drawing, mesh/cad.py)
+    with the reader r that names file and keys in errors; returns what _read returns."""
     r.table("", data, "")
     size = r.size("size", data.get("size", 0.2))
     if "outer" not in data:
@@ -250,19 +256,25 @@ def _split(loops, exits, tol):
     return out
 
 
-def build_mesh(geometry_file, out=None, refine_exits=None, gmsh_options=None) -> pathlib.Path:
-    """Mesh the floor plan ``geometry_file`` and write it as MSH 2.2.
+def build_mesh(geometry_file, out=None, refine_exits=None, gmsh_options=None, cad=None) -> pathlib.Path:
+    """Mesh the floor plan ``geometry_file`` (TOML; or a DXF drawing or WKT polygon, mesh/cad.py) and write it
+    as MSH 2.2.
 
-    out: the .msh path (default: next to the TOML, same stem).
+    out: the .msh path (default: next to the plan, same stem).
     refine_exits: local cell size near every exit, overriding the per-exit
     ``size`` keys (None: use them).
     gmsh_options: gmsh options overriding femcrowd's (frontal-Delaunay,
     ``Mesh.Algorithm`` 6, with ``Mesh.Smoothing`` 5), e.g. for benchmarks.
+    cad: options of the DXF / WKT reader (mesh/cad.py: layer names, size, extra exits).
     Raises InputError for a bad floor plan.
     """
     geometry_file = pathlib.Path(geometry_file)
     out = pathlib.Path(out) if out is not None else geometry_file.with_suffix(".msh")
-    size, loops, circles, exits, tol = _read(geometry_file)
+    if geometry_file.suffix.lower() in (".dxf", ".wkt"):
+        from .cad import read_plan
+        size, loops, circles, exits, tol = read_plan(geometry_file, **(cad or {}))
+    else:
+        size, loops, circles, exits, tol = _read(geometry_file)
     if refine_exits is not None:
         refine_exits = _Reader(geometry_file).size("refine_exits", refine_exits)
     gmsh.initialize(readConfigFiles=False, interruptible=False)

@@ -163,6 +163,27 @@ class MicroSimulation:
         # overlaps (round-off, or in the input) are removed by at most this much per
         # step: the QP stays feasible and no overlap can grow
         self._recover = 1e-3 * float(r.min()) if len(r) else 0.0
+        self._next_id = int(self.ids.max()) + 1 if len(self.ids) else 0   # the id of the next disc added
+        self.moved_to = q               # the centres after the last move, before the discs that left are removed
+
+    def set_boundary(self, walls, exits) -> None:
+        """New walls and exits (a door that closed or opened); the candidate list is rebuilt at the next step."""
+        self.walls = WallSet(walls)
+        self.exits = merge_collinear(exits) if len(as_segments(exits)) else as_segments(exits)
+        self.cl, self._C, self.lam = None, None, np.zeros(0)
+
+    def add(self, q, r) -> None:
+        """Discs entering the scene (sources), with new ids; the candidate list is rebuilt at the next step."""
+        q, r = np.asarray(q, float).reshape(-1, 2), np.asarray(r, float)
+        if not len(q):
+            return
+        first = self._next_id
+        self.q, self.r = np.concatenate([self.q, q]), np.concatenate([self.r, r])
+        self.ids = np.concatenate([self.ids, np.arange(first, first + len(q))])
+        self._next_id = first + len(q)
+        self.u = np.concatenate([self.u, np.zeros_like(q)])
+        self.cl, self._C, self.lam = None, None, np.zeros(0)
+        self._recover = self._recover or 1e-3 * float(r.min())
 
     # ------------------------------------------------------------------
     @property
@@ -199,10 +220,11 @@ class MicroSimulation:
         vmax = float(np.sqrt((U * U).sum(1)).max()) if self.count else 0.0
         return max(0.5 * rm, 6.0 * self.tau * vmax)
 
-    def restart(self, q, r, ids, u, t: float, nstep: int, evacuated: int) -> None:
+    def restart(self, q, r, ids, u, t: float, nstep: int, evacuated: int, next_id: int) -> None:
         """Continue from given discs (a checkpoint): the candidate list and the multipliers are rebuilt."""
         self.q, self.r, self.ids, self.u = (np.array(a) for a in (q, r, ids, u))
-        self.t, self.nstep, self.evacuated = float(t), int(nstep), int(evacuated)
+        self.t, self.nstep, self.evacuated, self._next_id = float(t), int(nstep), int(evacuated), int(next_id)
+        self.moved_to = self.q
         self.cl, self.lam, self._C = None, np.zeros(0), None
 
     def constraints(self) -> Constraints:
@@ -254,6 +276,7 @@ class MicroSimulation:
         # exits
         gone = exit_crossings(self.q, q_new, self.exits) if N else np.zeros(0, bool)
         ngone = int(gone.sum())
+        self.moved_to = q_new
         self.q = q_new
         self.u = u
         self.lam = lam

@@ -8,7 +8,9 @@ or ``discs.pvd`` (micro: points with radius, pressure), ``history.csv`` and
   ``discs_tXXX.png`` (micro: discs coloured by their pressure);
 - ``density.gif`` (or ``.mp4`` with imageio-ffmpeg; micro: ``discs.gif``);
 - ``curves.png``: people inside and evacuated, flow rate per exit, max
-  pressure, saturated area (micro: contacts and max overlap) against time.
+  pressure, saturated area (micro: contacts and max overlap) against time;
+- with ``measurements.csv``: ``lines.png``, ``areas.png`` and ``level_of_service.png``
+  (plot/measurements.py).
 
 The floor plan comes from the run's mesh (file and exits recorded in
 summary.json): walls in grey, exits in green, obstacles (holes) filled in
@@ -26,6 +28,7 @@ from ..driver.reading import RunDirectory
 from ..errors import InputError
 from ..mesh import Boundary, file_checksum, load_domain
 from .canvas import CMAPS, PRESSURE_TITLE, Canvas, bounds, density_title, nice_top, pv
+from .measurements import measurement_plots
 
 log = logging.getLogger("femcrowd.plot")
 
@@ -274,4 +277,5 @@ def plot_run(directory, times=None, animate=True, out=None, mp4=False, quiet=Tru
     plan = FloorPlan(run)
     written = pictures(run, plan, times, out)
     written += [animation(run, plan, out, mp4, quiet) if animate else None, curves(run, out)]
+    written += measurement_plots(run, out)
     return [path for path in written if path is not None]

@@ -133,3 +133,22 @@ def test_a_checkpoint_of_another_case_or_mesh_is_refused(tmp_path):
     result = invoke("run", case, "--out", out, "-q", "--resume")
     assert result.exit_code == 2 and "another mesh" in result.stderr, result.output
     assert snapshot(out) == before
+
+
+@pytest.mark.parametrize("model", ["macro", "micro"])
+def test_arrivals_doors_and_measurements_resume(tmp_path, model):
+    """cases/entrance (a source, a door schedule, lines and an area): stopped at 12 s (door closed), then
+    continued to 20 s, it gives the uninterrupted run's history, measurements (and disc trajectories)."""
+    whole, part = tmp_path / "whole", tmp_path / "part"
+    case = CASES / "entrance"
+    common = ["-q", "--set", f'model.type="{model}"']
+    assert invoke("run", case, "--out", whole, "--set", "time.end=20", *common).exit_code == 0
+    assert invoke("run", case, "--out", part, "--set", "time.end=12", *common).exit_code == 0
+    assert invoke("run", case, "--out", part, "--set", "time.end=20", "--resume", *common).exit_code == 0
+    for name in ("history.csv", "measurements.csv"):
+        a, b = read_history(whole / name), read_history(part / name)
+        assert set(a) == set(b) and len(a["time"]) == len(b["time"])
+        for column in set(a) - SOLVER_PATH - {"solver_iterations", "kkt", "gap", "change"}:
+            assert np.allclose(a[column], b[column], rtol=1e-9, atol=1e-9), (name, column)
+    if model == "micro":
+        assert (whole / "trajectories.txt").read_text() == (part / "trajectories.txt").read_text()

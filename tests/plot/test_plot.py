@@ -183,3 +183,25 @@ def test_mp4_without_imageio_ffmpeg_is_one_line_and_writes_nothing(short_run, tm
     result = CliRunner().invoke(main, ["plot", str(short_run), "-o", str(tmp_path / "p"), "--mp4"])
     assert result.exit_code == 2 and "imageio-ffmpeg" in result.stderr and result.stderr.count("\n") == 1
     assert not (tmp_path / "p").exists()
+
+
+def test_plot_of_a_run_with_measurements(tmp_path):
+    """N-t and flow of the lines, density-speed of the areas, the level-of-service map of the maximum
+    density, only for a run with measurements.csv; the map shows the levels of the densities met."""
+    from femcrowd import load_case, run
+    from femcrowd.plot.measurements import FRUIN_COLOURS
+
+    lines = [{"name": "door", "from": [10, 2.5], "to": [10, 3.5]}]
+    areas = [{"name": "front", "polygon": [[8, 2], [10, 2], [10, 4], [8, 4]]}]
+    case = load_case(ROOT / "cases" / "room", {"time.end": 6.0, "model.rho_max": 5.4, "initial.density": 4.0,
+                                              "measure.lines": lines, "measure.areas": areas})
+    out = run(case, tmp_path / "run").output_dir
+    result = CliRunner().invoke(main, ["plot", str(out), "--no-animation", "-q"])
+    assert result.exit_code == 0, result.output
+    for name in ("lines.png", "areas.png", "level_of_service.png"):
+        check_not_blank(iio.imread(out / "plots" / name)[..., :3], colours=10, filled=0.05)
+    service = iio.imread(out / "plots" / "level_of_service.png")[..., :3]
+    assert has_colour(service, rgb(FRUIN_COLOURS[-1])) and has_colour(service, rgb(FRUIN_COLOURS[0]))
+    plain = run(load_case(ROOT / "cases" / "room", {"time.end": 1.0}), tmp_path / "plain").output_dir
+    CliRunner().invoke(main, ["plot", str(plain), "--no-animation", "-q"])
+    assert not (plain / "plots" / "lines.png").exists()

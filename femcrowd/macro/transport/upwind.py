@@ -81,6 +81,12 @@ class UpwindTransport:
                 rho_t += rho
         return rho_t, dt * (self.exit_rate @ rho)
 
+    def facet_flux(self, rho: np.ndarray, dt: float) -> np.ndarray:
+        """The mass each facet carries f2t[0] -> f2t[1] (out of the domain through an exit) in the step of
+        rho by dt that step() makes (for measurement lines; step() does not compute it)."""
+        k0, k1 = self.domain.f2t
+        return dt * (self.out0 * rho[k0] - self.out1 * rho[np.maximum(k1, 0)])
+
     def update_matrix(self, dt):
         """B = I + dt diag(1/|K|) F (CSR), rho~ = B rho, with its diagonal clipped at 0.
 

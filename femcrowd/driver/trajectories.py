@@ -1,0 +1,56 @@
+"""Disc trajectories for PedPy (Juelich Supercomputing Centre, PedPy 2023): trajectories.txt in the Juelich
+text format (``ID FR X Y Z`` in metres, ``# framerate:`` in the header) and walkable_area.wkt.
+
+Frames are at the times k / rate, independent of the scheme's steps: a disc moves on a straight line
+during a step (q^{n+1} = q^n + tau u^{n+1}), so its position at a frame time inside the step is
+q^{n+1} - (t^{n+1} - t_k) u^{n+1}, exactly the scheme's path. A disc that leaves through an exit
+during a step has no position after it: its trajectory ends at the last frame before that step.
+"""
+
+from pathlib import Path
+
+import numpy as np
+import shapely
+
+from ..mesh import Domain
+from ..mesh.outline import walkable_area
+
+
+class TrajectoryFile:
+    """trajectories.txt written frame by frame as the run goes (flushed: an interrupted run keeps it)."""
+
+    def __init__(self, directory, rate: float, domain: Domain, frame: int | None = None):
+        """frame: the next frame of a resumed run (the rows of the later frames, written after its
+        checkpoint, are dropped)."""
+        directory = Path(directory)
+        (directory / "walkable_area.wkt").write_text(shapely.to_wkt(walkable_area(domain), rounding_precision=9)
+                                                     + "\n")
+        self.rate = rate
+        self.frame = frame or 0   # the next frame to write
+        path = directory / "trajectories.txt"
+        kept = [] if frame is None else [line for line in path.read_text().splitlines(keepends=True)
+                                         if line.startswith("#") or int(line.split("\t")[1]) < frame]
+        self._file = open(path, "w")
+        if frame is None:
+            self._file.write(f"# framerate: {rate:g}\n# unit: m\n# written by femcrowd (disc model)\n"
+                             "# ID\tFR\tX\tY\tZ\n")
+        self._file.writelines(kept)
+
+    def start(self, t: float, ids: np.ndarray, q: np.ndarray) -> None:
+        """The frames up to t (the initial discs, at rest before t = 0)."""
+        while self.frame / self.rate <= t + 1e-12:
+            self._write(ids, q)
+
+    def step(self, t: float, dt: float, ids: np.ndarray, q: np.ndarray, u: np.ndarray) -> None:
+        """The frames in (t - dt, t] of a step that ended at t with the discs (ids, q) moving at u."""
+        while self.frame / self.rate <= t + 1e-12:
+            self._write(ids, q - (t - self.frame / self.rate) * u)
+        self._file.flush()
+
+    def _write(self, ids, q) -> None:
+        rows = np.column_stack([ids, np.full(len(ids), self.frame), q, np.zeros(len(ids))])
+        np.savetxt(self._file, rows, fmt=["%d", "%d", "%.6f", "%.6f", "%.1f"], delimiter="\t")
+        self.frame += 1
+
+    def close(self) -> None:
+        self._file.close()

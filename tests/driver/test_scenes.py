@@ -1,0 +1,199 @@
+"""Scenes as engineers build them (docs/scenes.md): door schedules, inflow sources, measurement lines and
+areas, against exact answers and the invariants of the model."""
+
+import numpy as np
+import pytest
+
+from femcrowd import Simulation, load_case
+from femcrowd.macro.exact import SaturatedEvacuation
+from femcrowd.mesh.floorplan import build_mesh
+
+from ..support import CASES
+
+
+def macro_run(case_dir, overrides):
+    result = Simulation(load_case(case_dir, overrides)).run(stop_when_empty=False)
+    assert result.summary["status"] == "completed"
+    return result
+
+
+def assert_invariants(history, tol=1e-10):
+    """Mass balance (with inflow), 0 <= rho <= 1, p >= 0, complementarity, on every row."""
+    assert history["mass_error"].max() < tol
+    assert history["min_density"].min() >= 0.0
+    assert history["max_density"].max() <= 1 + 1e-9
+    assert history["min_pressure"].min() >= 0.0
+    assert history["complementarity"].max() < 1e-9
+    assert history["pressure_unsaturated"].max() == 0.0
+
+
+# --- door schedules -------------------------------------------------------------------------------
+
+def test_an_exit_that_opens_at_t0_shifts_the_exact_evacuation_by_t0():
+    """Exact solution 3 with its exit closed until t0: nothing leaves before t0 (the block rests against
+    the closed door), then evacuated(t) follows the exact curve s0 - s(t - t0) as closely as the run
+    with the exit open from t = 0 follows s0 - s(t)."""
+    t0, span = 0.2, 0.3
+    exact = SaturatedEvacuation(k=1.0, s0=1.0)
+    free = macro_run(CASES / "saturated-exit", {"time.end": span}).history
+    door = macro_run(CASES / "saturated-exit", {"time.end": t0 + span, "boundary.open": {"exit": [[t0, np.inf]]}})
+    h = door.history
+    closed = h["time"] <= t0
+    assert np.all(h["evacuated"][closed] == 0.0)
+    assert np.any(np.isclose(h["time"], t0, rtol=0, atol=1e-14))    # a step lands on the opening
+    assert_invariants(h)
+    after = ~closed
+    error_door = np.abs(h["evacuated"][after] - [exact.evacuated(t - t0) for t in h["time"][after]])
+    error_free = np.abs(free["evacuated"] - [exact.evacuated(t) for t in free["time"]])
+    assert error_door.max() <= 1.05 * error_free.max() + 1e-3, (error_door.max(), error_free.max())
+    assert error_door.max() < 0.03   # ~h of the channel mesh (0.1), as in the convergence study
+
+
+def test_a_door_closing_on_a_saturated_crowd_keeps_every_invariant():
+    """The exit of exact solution 3 closes on the saturated block while it is pushed out, then opens
+    again: the closed room's gauge and the warm start of the other door state keep the invariants."""
+    schedule = {"exit": [[0.0, 0.1], [0.25, np.inf]]}
+    h = macro_run(CASES / "saturated-exit", {"time.end": 0.4, "boundary.open": schedule}).history
+    assert_invariants(h)
+    shut = (h["time"] > 0.1) & (h["time"] <= 0.25)
+    assert np.ptp(h["evacuated"][shut]) == 0.0 and h["evacuated"][shut][0] > 0
+    assert h["max_pressure"][shut].max() > 0        # the crowd presses against the closed door
+    assert h["evacuated"][-1] > h["evacuated"][shut][-1]
+
+
+def test_closing_one_of_two_doors_reroutes_within_one_step():
+    """two-exits: the wide door closes at t = 1; at a probe next to it the desired velocity pointed
+    to it before and points away from it, toward the narrow door, from the first step after t = 1."""
+    case = load_case(CASES / "two-exits", {"time.end": 1.5, "boundary.open": {"exit_wide": [[0, 1]]}})
+    sim = Simulation(case)
+    state, boundary = sim.model.state, sim.scene.boundary
+    probe = sim.scene.domain.locate(np.array([[18.0, 6.0]]))[0]
+    directions = []
+    while state.t < 1.5:
+        u = sim.scene.velocity.cells(boundary.at(state.t))[probe]   # the U of the coming step
+        directions.append((state.t, u))
+        sim.model.step(1.5)
+    before = [u for t, u in directions if t < 1.0]
+    after = [(t, u) for t, u in directions if t >= 1.0]
+    assert after[0][0] == 1.0                     # a step landed on the change
+    assert all(u[0] > 0.9 for u in before)        # toward the wide door (x = 20)
+    to_narrow = np.array([14.5, 0.0]) - [18.0, 6.0]
+    assert all(u @ to_narrow / np.linalg.norm(to_narrow) > 0.5 for _, u in after)
+
+
+def test_micro_walls_follow_the_doors(tmp_path):
+    """Discs of two-exits with the wide door closed from t = 0.5: none leaves through it afterwards, the
+    discs near it turn toward the narrow door, and no disc crosses the closed door."""
+    case = load_case(CASES / "two-exits", {"model.type": "micro", "time.end": 3.0, "micro.count": 60,
+                                           "initial.density": "0.7 * (x > 16) * (y > 4) * (y < 8)",
+                                           "boundary.open": {"exit_wide": [[0, 0.5]]}})
+    result = Simulation(case).run(stop_when_empty=False)
+    h = result.history
+    assert h["outside"].max() == 0
+    late = h["time"] > 0.5 + 1e-9
+    assert np.ptp(h["evacuated"][late]) == 0   # nobody reaches the narrow door in 2.5 s from x > 16
+    assert h["evacuated"][late][0] > 0         # some left through the wide door while it was open
+    assert result.state.q[:, 0].max() < 20.0
+
+
+def test_a_case_without_the_new_keys_adds_nothing_per_step():
+    sim = Simulation(load_case(CASES / "room", {"time.end": 0.5}))
+    assert sim.model.solver.before_step == [] and sim.model.solver.after_step == []
+    assert sim.scene.boundary.changes == [] and sim.model.sources is None and sim.model.measurements is None
+    result = sim.run()
+    assert result.measurements is None and "inflow" not in result.history
+
+
+# --- inflow sources -------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def channel(tmp_path_factory):
+    """A 4 m x 1 m channel: "entrance" at x = 0, "exit" at x = 4, and its case (U = (1, 0))."""
+    here = tmp_path_factory.mktemp("channel")
+    (here / "plan.toml").write_text('size = 0.1\n[outer]\npoints = [[0, 0], [4, 0], [4, 1], [0, 1]]\n'
+                                    '[[exits]]\nname = "entrance"\nfrom = [0, 0]\nto = [0, 1]\n'
+                                    '[[exits]]\nname = "exit"\nfrom = [4, 0]\nto = [4, 1]\n')
+    build_mesh(here / "plan.toml")
+    (here / "case.toml").write_text('[mesh]\nfile = "plan.msh"\n[boundary]\nexits = ["exit"]\n'
+                                    '[velocity]\ntype = "field"\nux = 1.0\n[time]\nend = 2.0\n'
+                                    '[[sources]]\nboundary = "entrance"\nflow = 0.3\nstart = 0.5\nend = 1.5\n')
+    return here
+
+
+def test_inflow_into_an_empty_channel_is_flow_times_length_times_duration(channel):
+    result = macro_run(channel, {})
+    h = result.history
+    assert h["inflow"][-1] == pytest.approx(0.3 * 1.0 * 1.0, rel=1e-12, abs=0)
+    assert h["queued"].max() == 0.0
+    assert h["mass"][-1] == pytest.approx(0.3, rel=1e-12)
+    assert np.all(h["inflow"][h["time"] <= 0.5] == 0.0)
+    assert_invariants(h)
+
+
+def test_a_blocked_entrance_queues_and_the_balance_holds(channel):
+    """flow 3 per metre per second at speed 1 saturates the channel: what cannot enter waits outside,
+    arrived = inflow + queued and mass + evacuated = inflow to 1e-10, the density never exceeds 1."""
+    h = macro_run(channel, {"sources": [{"boundary": "entrance", "flow": 3.0, "start": 0.0, "end": 1.0}],
+                            "time.end": 2.5}).history
+    arrived = 3.0 * np.minimum(h["time"], 1.0)
+    assert h["queued"].max() > 1.0
+    np.testing.assert_allclose(h["inflow"] + h["queued"], arrived, rtol=1e-10, atol=1e-12)
+    assert_invariants(h)
+    assert h["queued"][-1] < h["queued"].max()   # the queue drains once the arrivals stop
+
+
+def test_micro_source_places_discs_without_overlap_at_the_rate(channel):
+    case = load_case(channel, {"model.type": "micro", "sources": [{"boundary": "entrance", "flow": 0.5}],
+                               "micro.radius": 0.1, "time.end": 3.0})
+    result = Simulation(case).run(stop_when_empty=False)
+    h = result.history
+    # 0.5 / rho_max x packing / (pi r^2) discs per metre per second over 1 m for 3 s
+    expected = 0.5 * np.pi / (2 * np.sqrt(3)) / (np.pi * 0.01) * 3.0
+    assert h["inflow"][-1] + h["queued"][-1] == pytest.approx(expected, abs=1.0)
+    assert h["inflow"][-1] >= 0.9 * expected
+    assert np.all(h["count"] + h["evacuated"] == h["inflow"])
+    assert h["max_overlap"].max() < 1e-3 * 0.1
+
+
+# --- measurements ---------------------------------------------------------------------------------
+
+def test_lines_at_the_exit_count_exactly_the_evacuated_mass():
+    """cases/room: a line on the door and one 1 cm inside it count the evacuated mass (to round-off); a
+    line across the cells of the room (x = 5) counts the mass that crossed it, which lies right of it."""
+    lines = [{"name": "door", "from": [10, 2.5], "to": [10, 3.5]},
+             {"name": "inside", "from": [9.99, 2.4], "to": [9.99, 3.6]},
+             {"name": "middle", "from": [5, 0], "to": [5, 6]}]
+    areas = [{"name": "front", "polygon": [[8, 2], [10, 2], [10, 4], [8, 4]]}]
+    result = macro_run(CASES / "room", {"time.end": 8.0, "measure.lines": lines, "measure.areas": areas})
+    m, h = result.measurements, result.history
+    np.testing.assert_allclose(m["door_count"], h["evacuated"], rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(m["inside_count"], h["evacuated"], rtol=1e-10, atol=1e-12)
+    assert h["evacuated"][-1] > 1.0
+    assert np.all(np.diff(m["middle_count"]) >= -1e-12)
+    assert 0 <= m["front_density"].min() and m["front_density"].max() <= 1.0 + 1e-9
+    assert m["front_pressure"].max() > 0 and m["front_speed"].max() > 0
+
+
+def test_a_line_along_interior_edges_counts_the_mass_that_crossed_it(square_domain):
+    """On a structured mesh the line x = 1/2 follows edges: its count is exactly the mass now right of it
+    minus the mass there at t = 0 (nothing leaves: no exit)."""
+    from femcrowd.driver.measurements import line_facets
+    domain = square_domain(16)
+    facets, sign = line_facets(domain, np.array([0.5, 0.0]), np.array([0.5, 1.0]))
+    assert np.allclose(domain.midpoint[facets, 0], 0.5) and domain.length[facets].sum() == pytest.approx(1.0)
+    assert np.all(sign == np.where(domain.centroid[domain.f2t[0][facets], 0] < 0.5, 1, -1))
+
+
+def test_micro_line_at_the_exit_counts_the_evacuated_discs():
+    lines = [{"name": "door", "from": [8, 2.1], "to": [8, 2.9]}]
+    case = load_case(CASES / "narrow-door-micro", {"time.end": 4.0, "measure.lines": lines})
+    result = Simulation(case).run(stop_when_empty=False)
+    assert result.history["evacuated"][-1] > 0
+    np.testing.assert_array_equal(result.measurements["door_count"], result.history["evacuated"])
+
+
+def test_an_exit_that_never_opens_is_a_wall_for_the_whole_run():
+    sim = Simulation(load_case(CASES / "two-exits", {"time.end": 5.0, "boundary.open": {"exit_narrow": []}}))
+    assert sim.scene.boundary.at(0.0).open == ("exit_wide",) and sim.scene.boundary.at(1e9).open == ("exit_wide",)
+    h = sim.run().history
+    assert np.all(h["evacuated_exit_narrow"] == 0.0) and h["evacuated_exit_wide"][-1] > 0
