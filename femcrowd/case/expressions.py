@@ -1,4 +1,4 @@
-"""Safe arithmetic expressions of x, y, t from case files.
+"""Safe arithmetic expressions of x, y, t (and of rho, for a speed law) from case files.
 
 Case files are user input, so expressions are never handed to ``eval``. They
 are parsed with :mod:`ast` and evaluated by walking a whitelist of node types:
@@ -45,10 +45,12 @@ class ExpressionError(ValueError):
 
 
 class Expression:
-    """A parsed, validated expression; call it with arrays ``x, y`` and a time ``t``."""
+    """A parsed, validated expression; call it with arrays ``x, y`` and a time ``t`` (or, for other
+    ``variables``, evaluate it with :meth:`of`)."""
 
-    def __init__(self, source):
+    def __init__(self, source, variables=VARIABLES):
         self.source = str(source)
+        self.variables = tuple(variables)
         try:
             tree = ast.parse(self.source.strip(), mode="eval")
         except SyntaxError as err:
@@ -66,9 +68,9 @@ class Expression:
             if not isinstance(node.value, (int, float)) or isinstance(node.value, bool):
                 raise ExpressionError(f"only numbers are allowed, not {node.value!r}")
         elif isinstance(node, ast.Name):
-            if node.id not in VARIABLES and node.id not in CONSTANTS:
+            if node.id not in self.variables and node.id not in CONSTANTS:
                 raise ExpressionError(
-                    f"unknown name {node.id!r} (variables: x, y, t; constants: pi, e)")
+                    f"unknown name {node.id!r} (variables: {', '.join(self.variables)}; constants: pi, e)")
             self.names.add(node.id)
         elif isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
             self._check(node.left)
@@ -102,6 +104,15 @@ class Expression:
         with np.errstate(all="ignore"):
             value = self._eval(self._tree, env)
         return np.broadcast_to(np.asarray(value, dtype=float), env["x"].shape).copy()
+
+    def of(self, **values):
+        """Evaluate with the arrays of its variables given by name, e.g. ``of(rho=r)``; a float array of
+        their (broadcast) shape."""
+        env = {name: np.asarray(values[name], float) for name in self.variables}
+        with np.errstate(all="ignore"):
+            value = self._eval(self._tree, {**env, **CONSTANTS})
+        shape = np.broadcast_shapes(*(v.shape for v in env.values()))
+        return np.broadcast_to(np.asarray(value, dtype=float), shape).copy()
 
     def _eval(self, node, env):
         ev = self._eval

@@ -12,6 +12,7 @@ on the command line (``--out``) is relative to the current directory.
 
 import copy
 import difflib
+import re
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -19,7 +20,10 @@ from pathlib import Path
 
 from ..errors import InputError
 from .expressions import Expression
-from .schema import REQUIRED, SCHEMA, check_value
+from .schema import REQUIRED, SCHEMA, NamedTables, check_value
+
+#: the name of a table of a table of tables ([populations.<name>]): it names columns and arrays
+TABLE_NAME = re.compile(r"[A-Za-z0-9_-]+")
 
 
 @dataclass
@@ -112,7 +116,9 @@ def _resolve(raw, schema, file, prefix):
         key = prefix + name
         if isinstance(spec, dict):
             out[name] = _resolve(raw.get(name, {}), spec, file, key + ".")
-        elif name in raw and spec.kind == "tables":   # an array of tables: each resolved against its keys
+        elif isinstance(spec, NamedTables):   # a table of named tables: each resolved against its keys
+            out[name] = _resolve_tables(raw.get(name, {}), spec, file, key)
+        elif name in raw and spec.kind == "table_array":   # an array of tables: each resolved against its keys
             out[name] = [_resolve(item, spec.items, file, f"{key}[{i}].")
                          for i, item in enumerate(check_value(spec, raw[name], file, key))]
         elif name in raw:
@@ -122,3 +128,13 @@ def _resolve(raw, schema, file, prefix):
         else:
             out[name] = copy.deepcopy(spec.default)
     return out
+
+
+def _resolve_tables(raw, spec, file, key):
+    """A table of named tables ([populations.<name>]): each resolved against spec.keys."""
+    if not isinstance(raw, dict):
+        raise InputError(file, key, raw, f"expected tables [{key}.<name>]")
+    for label in raw:
+        if not TABLE_NAME.fullmatch(label):
+            raise InputError(file, f"{key}.{label}", raw[label], "a name is letters, digits, _ and - only")
+    return {label: _resolve(table, spec.keys, file, f"{key}.{label}.") for label, table in raw.items()}

@@ -3,7 +3,7 @@
 ``python -m femcrowd.case.reference`` prints it; a test checks that the page holds exactly this text.
 """
 
-from .schema import REQUIRED, SCHEMA
+from .schema import REQUIRED, SCHEMA, Key, NamedTables
 from .template import toml_value
 
 
@@ -11,10 +11,14 @@ def keys_markdown() -> str:
     """Markdown tables of every key: name, default, meaning."""
     lines = ["| key | default | meaning |", "|---|---|---|"]
     for section, spec in SCHEMA.items():
-        for name, key in spec.items() if isinstance(spec, dict) else [(None, spec)]:
+        rows = spec.items() if isinstance(spec, dict) else [(None, spec)]
+        if isinstance(spec, NamedTables):  # the section itself, then the keys of each of its tables
+            rows = [(None, spec), *((f"<name>.{name}", key) for name, key in spec.keys.items())]
+        for name, key in rows:
             dotted = section if name is None else f"{section}.{name}"
             lines.append(_row(dotted, key))
-            for item, sub in (key.items or {}).items():   # the keys of each table of an array of tables
+            array = key.items if isinstance(key, Key) and key.items else {}   # the keys of an array of tables
+            for item, sub in array.items():
                 lines.append(_row(f"{dotted}[].{item}", sub))
     return "\n".join(lines) + "\n"
 

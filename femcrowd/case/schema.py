@@ -11,7 +11,10 @@ from dataclasses import dataclass
 
 from ..errors import InputError
 from ..macro.exact import SOLUTIONS
+from ..macro.speed_law import NAMES as SPEED_LAWS
+from ..macro.speed_law import LawError, SpeedLaw
 from ..macro.transport import TRANSPORTS
+from ..micro.strategies import STRATEGIES
 from .expressions import Expression, ExpressionError
 
 REQUIRED = object()
@@ -32,8 +35,33 @@ class Key:
     low: float = -math.inf
     high: float = math.inf
     low_open: bool = False
-    items: dict = None   # kind "tables": the keys of each table of the array
+    items: dict = None   # kind "table_array": the keys of each table of the array
 
+
+@dataclass(frozen=True)
+class NamedTables:
+    """A table of named tables, ``[section.<name>]``, each checked against ``keys`` (the populations)."""
+
+    keys: dict
+    doc: str = ""
+    default = None
+
+
+#: speed_law: the factor f(rho) of the desired speed (macro/speed_law.py)
+SPEED_LAW_DOC = ('the desired speed is f(rho) x speed: "constant" (f = 1), "linear" (f = 1 - rho/rho_max), '
+                 '"weidmann" (Weidmann 1993, rho_max in persons/m^2) or an expression in rho (in units of rho_max, '
+                 '0..1); f non-increasing in [0, 1]; f(1) = 0: the projection is never needed')
+#: the keys of one [populations.<name>] table; the velocity keys override [velocity] for this population
+POPULATION = {
+    "density": Key(0.0, "expr", "this population's initial density in [0, rho_max]: a number or an expression "
+                   "in x, y; the populations' densities sum to at most rho_max"),
+    "exits": Key(None, "strlist", "for velocity type exits: the exits this population heads for (default: all)"),
+    "type": Key(None, "choice", "overrides velocity.type for this population", ("exits", "field")),
+    "speed": Key(None, "expr", "overrides velocity.speed for this population"),
+    "speed_law": Key(None, "law", "overrides velocity.speed_law for this population"),
+    "ux": Key(None, "expr", "overrides velocity.ux for this population"),
+    "uy": Key(None, "expr", "overrides velocity.uy for this population"),
+}
 
 SCHEMA = {
     "title": Key("", "str", "a title for pictures and reports"),
@@ -58,7 +86,11 @@ SCHEMA = {
         "speed": Key(1.0, "expr", "desired speed (m/s) for type exits: a number >= 0 or an expression in x, y"),
         "ux": Key(0.0, "expr", "x component of U (m/s) for type field: an expression in x, y, t"),
         "uy": Key(0.0, "expr", "y component of U (m/s) for type field: an expression in x, y, t"),
+        "speed_law": Key("constant", "law", SPEED_LAW_DOC),
     },
+    "populations": NamedTables(POPULATION, "several populations, one table [populations.<name>] each (name: letters, "
+                          "digits, _ and -), sharing one constraint and one pressure; without it the crowd of "
+                          "[initial] is one population"),
     "initial": {
         "density": Key(0.0, "expr", "initial density in [0, rho_max]: a number or an expression in x, y"),
         "regions": Key({}, "regions", "initial density per physical surface group, e.g. { crowd = 0.9 }"),
@@ -95,6 +127,12 @@ SCHEMA = {
         "positions": Key(None, "str", "a CSV of discs (columns x, y, r) instead of sampling, relative to case.toml"),
         "method": Key("exact", "choice", "the projection of the velocities: exact, or Uzawa's iteration",
                       ("exact", "uzawa")),
+        "strategy": Key("push", "choice", "what a disc does behind slower visible neighbours (Maury et al. 2011): "
+                        "push on, decelerate to their mean speed, or bypass them", STRATEGIES),
+        "view_distance": Key(1.0, "number", "how far a disc sees (m): the neighbours of the strategies and the "
+                             "density of the speed law", low=0, low_open=True),
+        "view_angle": Key(45.0, "number", "half angle of view (degrees) of the strategies and the speed law",
+                          low=0, high=90, low_open=True),
     },
     "scheme": {
         "transport": Key("upwind", "choice", "the prediction: order-0 upwind; limited linear reconstruction with "
@@ -106,7 +144,7 @@ SCHEMA = {
                     tuple(SOLUTIONS)),
         **{name: Key(None, "number", "a parameter of the exact solution") for name in EXACT_PARAMETERS},
     },
-    "sources": Key([], "tables", "people arriving through a boundary group that is not an exit ([[sources]])",
+    "sources": Key([], "table_array", "people arriving through a boundary group that is not an exit ([[sources]])",
                    items={
                        "boundary": Key(REQUIRED, "str", "the physical line group they enter through"),
                        "flow": Key(REQUIRED, "number", "persons per metre of the group per second (density unit "
@@ -116,14 +154,14 @@ SCHEMA = {
                        "population": Key(None, "str", "the population they join (default: the first)"),
                    }),
     "measure": {
-        "lines": Key([], "tables", "counting lines ([[measure.lines]]): flow and cumulative count from left "
+        "lines": Key([], "table_array", "counting lines ([[measure.lines]]): flow and cumulative count from left "
                      "to right of from -> to, in measurements.csv",
                      items={
                          "name": Key(REQUIRED, "name", "the line's name (columns <name>_flow, <name>_count)"),
                          "from": Key(REQUIRED, "point", "first end [x, y] (m)"),
                          "to": Key(REQUIRED, "point", "second end [x, y] (m)"),
                      }),
-        "areas": Key([], "tables", "measurement areas ([[measure.areas]]): mean density, mean speed and max "
+        "areas": Key([], "table_array", "measurement areas ([[measure.areas]]): mean density, mean speed and max "
                      "pressure in a polygon, in measurements.csv",
                      items={
                          "name": Key(REQUIRED, "name", "the area's name (columns <name>_density, <name>_speed, "
@@ -195,6 +233,14 @@ def check_value(spec: Key, value, file, key: str):
         if not isinstance(value, dict) or not all(is_number(v) for v in value.values()):
             fail("expected a table of surface-group names to densities")
         return value
+    if kind == "law":
+        if not isinstance(value, str):
+            fail(f"expected one of {', '.join(map(repr, SPEED_LAWS))} or an expression in rho")
+        try:
+            SpeedLaw(value)
+        except LawError as err:
+            fail(str(err))
+        return value
     if kind == "radius":
         ok = is_number(value) and value > 0 or (
             isinstance(value, list) and len(value) == 2 and all(is_number(v) for v in value)
@@ -225,7 +271,7 @@ def check_value(spec: Key, value, file, key: str):
                 raise InputError(file, f"{key}.{name}", spans, "expected a list of [from, to] pairs of times "
                                  "with 0 <= from < to (to may be inf)")
         return {name: [[float(a), float(b)] for a, b in spans] for name, spans in value.items()}
-    if kind == "tables":
+    if kind == "table_array":
         if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
             fail("expected an array of tables")
         return value   # each table is resolved against spec.items by case.loading

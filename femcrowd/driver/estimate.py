@@ -43,7 +43,7 @@ def estimate(model: MacroModel) -> dict:
     transport = solver.transports(state, exits)[0]
     free = _median_seconds(lambda: transport.step(state.density, dt), TIMED_CALLS)
     projection = 0.0
-    if crowd.any():
+    if crowd.any() and solver.needs_projection:   # (a speed law with f(1) = 0 never projects)
         project = solver.projection(exits)[0]
         project(congested_input)  # cold start: builds the active set
         projection = _median_seconds(lambda: project(congested_input), 3)

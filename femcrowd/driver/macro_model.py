@@ -4,14 +4,16 @@ import time
 
 import numpy as np
 
+from ..errors import InputError
 from ..linalg.vectors import dot
 from ..macro import MacroSolver, MacroState
-from ..macro.diagnostics import invariants
+from ..macro.diagnostics import invariants, population_invariants
 from .checkpoint import parts, restore_parts
 from .measurements import MacroMeasurements
 from .output import triangle_frame
+from .populations import initial_densities
 from .recorder import Column
-from .scene import Scene, check_transport_cfl, initial_density
+from .scene import Scene, check_transport_cfl
 from .sources import MacroSources
 
 #: the history columns of a run with [[sources]]: cumulative mass that entered, mass waiting outside
@@ -43,6 +45,19 @@ def macro_columns(exit_names) -> list:
     ]
 
 
+def population_columns(names) -> list:
+    """The per-population columns of a run with several populations: mass_<name> and evacuated_<name> in
+    history.csv, and per population in the summary its masses, smallest density and largest mass error."""
+    columns = []
+    for name in names:
+        entry = f"populations.{name}"
+        columns += [Column(f"mass_{name}", ((f"{entry}.initial_mass", "first"), (f"{entry}.final_mass", "last"))),
+                    Column(f"evacuated_{name}", ((f"{entry}.evacuated", "last"),)),
+                    Column(f"min_density_{name}", ((f"{entry}.min_density_ever", "min"),), history=False),
+                    Column(f"mass_error_{name}", ((f"{entry}.max_mass_error", "max"),), history=False)]
+    return columns
+
+
 class MacroModel:
     """A MacroState and its MacroSolver for a scene; rows of diagnostics in the user's density unit."""
 
@@ -54,19 +69,31 @@ class MacroModel:
         self.rho_max = case["model"]["rho_max"]
         self.fields = case["output"]["fields"]
         tic = time.perf_counter()
-        self.state = MacroState.initial(initial_density(case, domain)[None], len(domain.exit_names))
-        self.solver = MacroSolver(domain, scene.boundary, [scene.velocity], case["scheme"]["transport"],
-                                  case["time"]["cfl"], case["time"]["dt"],
-                                  case["projection"]["direct_max"], case["projection"]["tol"])
+        populations = scene.populations
+        laws = [p.law for p in populations]
+        if case["scheme"]["transport"] != "upwind" and not all(law.constant for law in laws):
+            raise InputError(case.file, "scheme.transport", case["scheme"]["transport"],
+                             "a speed law is transported with the order-0 LWR fluxes: use 'upwind'")
+        self.state = MacroState.initial(initial_densities(case, domain), len(domain.exit_names),
+                                        [p.name for p in populations])
+        self.solver = MacroSolver(domain, scene.boundary, [p.velocity for p in populations],
+                                  case["scheme"]["transport"], case["time"]["cfl"], case["time"]["dt"],
+                                  case["projection"]["direct_max"], case["projection"]["tol"], laws)
         exits = scene.boundary.at(0.0)
-        self.solver.projection(exits)
-        check_transport_cfl(case, self.solver.transports(self.state, exits)[0])
+        if self.solver.needs_projection:
+            self.solver.projection(exits)
+        schemes = self.solver.transports(self.state, exits)
+        check_transport_cfl(case, min(schemes, key=lambda s: s.max_cfl * s.max_dt))
         scene.timing["assembly"] = time.perf_counter() - tic
         self.initial_mass = self.mass
         self.empty_fraction = case["time"]["empty_fraction"]
         self.stop_when_empty = case["time"]["stop_when_empty"] and bool(domain.exit_group)
         self.evacuation_time = None   # the first time with less than empty_mass inside (scenes with exits)
         self.columns = macro_columns(domain.exit_names)
+        self.several = len(populations) > 1   # per-population columns and arrays only then
+        if self.several:
+            self.initial_masses = self.state.rho @ domain.area
+            self.columns += population_columns(self.state.populations)
         self.sources = self.measurements = None   # hooks only for the scenes that have them
         if scene.sources:
             self.sources = MacroSources(case, scene.sources, domain, self.state.populations)
@@ -125,7 +152,17 @@ class MacroModel:
                 "min_density": d["min_density"] * r, "min_pressure": d["min_pressure"],
                 "complementarity": d["complementarity"], "linear_residual": info["linear_residual"],
                 "mass_error": error, "pressure_unsaturated": d["pressure_unsaturated"],
-                "non_finite": d["non_finite"]}
+                "non_finite": d["non_finite"], **(self._population_row() if self.several else {})}
+
+    def _population_row(self) -> dict:
+        """mass_<name>, evacuated_<name> (user unit), min_density_<name>, mass_error_<name> of each population."""
+        row, r = {}, self.rho_max
+        supplied = self.initial_masses + (self.sources.arrived if self.sources is not None else 0.0)
+        for (name, d), m0 in zip(population_invariants(self.domain, self.state).items(), supplied):
+            row.update({f"mass_{name}": d["mass"] * r, f"evacuated_{name}": d["evacuated"] * r,
+                        f"min_density_{name}": d["min_density"] * r,
+                        f"mass_error_{name}": abs(d["mass"] + d["evacuated"] - m0) / max(m0, 1e-300)})
+        return row
 
     def empty(self) -> bool:
         """Has the crowd left (less than time.empty_fraction of it inside), in a scene that stops then?"""
@@ -140,6 +177,9 @@ class MacroModel:
         data = {}
         if "density" in self.fields:
             data["density"] = self.state.density * self.rho_max
+            if self.several:
+                data.update({f"density_{name}": rho * self.rho_max
+                             for name, rho in zip(self.state.populations, self.state.rho)})
         if "pressure" in self.fields:
             data["pressure"] = self.state.p
         if "velocity" in self.fields:
@@ -172,4 +212,4 @@ class MacroModel:
         """What the summary adds to the recorder's entries."""
         return {"steps": self.state.steps,
                 "remaining_fraction": self.mass / self.initial_mass if self.initial_mass > 0 else 0.0,
-                "evacuation_time": self.evacuation_time}
+                "evacuation_time": self.evacuation_time, "projection_needed": self.solver.needs_projection}

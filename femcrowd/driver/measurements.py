@@ -153,8 +153,7 @@ class MacroMeasurements:
         """The transport's facet fluxes of the coming step on the lines' facets (after the sources)."""
         self._exits = solver.boundary.at(state.t)
         if self.lines:
-            schemes = solver.transports(state, self._exits)
-            self._moved = sum(s.facet_flux(rho, dt)[self.facets] for s, rho in zip(schemes, state.rho))
+            self._moved = solver.facet_flux(state, dt)[self.facets]
 
     def after_step(self, solver, state, result) -> None:
         moved = np.zeros(0)

@@ -13,9 +13,11 @@ from types import SimpleNamespace
 import numpy as np
 
 from ..micro import MicroSimulation
+from ..micro.strategies import DesiredVelocity, View
 from .checkpoint import parts, restore_parts
 from .measurements import MicroMeasurements
 from .output import disc_frame
+from .populations import disc_populations, initial_densities
 from .recorder import Column
 from .scene import Scene, initial_discs
 from .sources import MicroSources
@@ -35,6 +37,14 @@ MICRO_COLUMNS = [
 ]
 
 
+def population_columns(names) -> list:
+    """count_<name>, evacuated_<name> of a run with several populations (and their summary entries)."""
+    return [column for name in names for column in (
+        Column(f"count_{name}", ((f"populations.{name}.initial_count", "first"),
+                                 (f"populations.{name}.final_count", "last"))),
+        Column(f"evacuated_{name}", ((f"populations.{name}.evacuated", "last"),)))]
+
+
 class MicroModel:
     """A MicroSimulation of the scene's discs; rows of diagnostics, disc frames."""
 
@@ -45,24 +55,35 @@ class MicroModel:
         self.domain, self.boundary = domain, boundary
         tic = time.perf_counter()
         exits = self.exits = boundary.at(0.0)
-        q, r = initial_discs(case, domain, exits)
-        velocity = scene.velocity
-        speed = np.hypot(*velocity.at_points(domain.centroid, 0.0, exits).T).max()
+        rho = initial_densities(case, domain)
+        q, r = initial_discs(case, domain, exits, rho.sum(axis=0) if len(rho) > 1 else None)
+        populations = scene.populations
+        speed = max(np.hypot(*p.velocity.at_points(domain.centroid, 0.0, exits).T).max() for p in populations)
         self.r_min = float(r.min()) if len(r) else float(np.min(case["micro"]["radius"]))
         tau = case["time"]["dt"]
         if tau is None:
             tau = case["time"]["cfl"] * self.r_min / speed if speed > 0 else case["output"]["every"]
         self.tau = tau
-        self.sim = MicroSimulation(q, r, exits.segments("wall"), exits.segments("exit"),
-                                   lambda xy, t: velocity.at_points(xy, t, boundary.at(t)), tau,
-                                   method=case["micro"]["method"])
-        self.columns = MICRO_COLUMNS
+        spec = case["micro"]
+        self.population = disc_populations(case, domain, rho, q)
+        self.names = [p.name for p in populations]
+        desired = DesiredVelocity([lambda xy, t, v=p.velocity: v.at_points(xy, t, boundary.at(t))
+                                   for p in populations],
+                                  self.population, [p.law for p in populations], spec["strategy"],
+                                  View(spec["view_distance"], spec["view_angle"]))
+        self.sim = MicroSimulation(q, r, exits.segments("wall"), exits.segments("exit"), desired, tau,
+                                   method=spec["method"])
+        desired.sim = self.sim
+        self.desired, self.initial_count = desired, len(q)
+        self.columns = list(MICRO_COLUMNS)
+        if len(populations) > 1:
+            self.columns += population_columns(self.names)
+            self.initial_counts = np.bincount(self.population, minlength=len(populations))
         self.sources = self.measurements = self.trajectories = None   # only for the scenes that have them
         if scene.sources:
             self.sources = MicroSources(case, scene.sources, domain, case["micro"]["radius"],
-                                        exits.segments("wall"), case["micro"]["seed"])
-            self.columns = MICRO_COLUMNS + [Column("inflow", (("inflow", "last"),)),
-                                            Column("queued", (("queued", "last"),))]
+                                        exits.segments("wall"), case["micro"]["seed"], self.names)
+            self.columns += [Column("inflow", (("inflow", "last"),)), Column("queued", (("queued", "last"),))]
             self.last_arrival = max(source.end for source in scene.sources)
         if scene.lines or scene.areas:
             self.measurements = MicroMeasurements(scene.lines, scene.areas, case["model"]["rho_max"])
@@ -94,7 +115,9 @@ class MicroModel:
         sim.tau = min(self.tau, until - sim.t)
         tic = time.perf_counter()
         if self.sources is not None:
-            sim.add(*self.sources.arrivals(sim.t, sim.tau, sim.q, sim.r))
+            q_in, r_in, population = self.sources.arrivals(sim.t, sim.tau, sim.q, sim.r)
+            sim.add(q_in, r_in)
+            self.desired.population = self.population = np.concatenate([self.population, population])
         before = sim.q if self.measurements is not None else None
         info = sim.step()
         self.timers["step"] += time.perf_counter() - tic
@@ -114,11 +137,21 @@ class MicroModel:
         """The diagnostics of a step (info: its StepInfo; None: the initial discs)."""
         sim = self.sim
         outside = int(np.count_nonzero(self.domain.locate(sim.q) < 0))
-        arrivals = {} if self.sources is None else {"inflow": self.sources.inflow, "queued": self.sources.queued}
+        extra = self._population_row() if len(self.names) > 1 else {}
+        if self.sources is not None:
+            extra.update(inflow=self.sources.inflow, queued=self.sources.queued)
         if info is None:
-            return {"time": sim.t, "dt": 0.0, "count": sim.count, "evacuated": 0, "contacts": 0, "max_overlap": 0.0,
-                    "solver_iterations": 0, "step_seconds": 0.0, "kkt": 0.0, "outside": outside, **arrivals}
-        return {**info.row(), "time": sim.t, "outside": outside, **arrivals}
+            return {"time": sim.t, "dt": 0.0, "count": sim.count, "evacuated": 0, "contacts": 0,
+                    "max_overlap": 0.0, "solver_iterations": 0, "step_seconds": 0.0, "kkt": 0.0, "outside": outside,
+                    **extra}
+        return {**info.row(), "time": sim.t, "outside": outside, **extra}
+
+    def _population_row(self) -> dict:
+        """count_<name> and evacuated_<name> of each population (arrivals counted in their population)."""
+        count = np.bincount(self.population[self.sim.ids], minlength=len(self.names))
+        arrived = np.bincount(self.population[self.initial_count:], minlength=len(self.names))
+        return {k: int(v) for name, c, c0 in zip(self.names, count, self.initial_counts + arrived)
+                for k, v in ((f"count_{name}", c), (f"evacuated_{name}", c0 - c))}
 
     def empty(self) -> bool:
         arriving = self.sources is not None and (self.sim.t < self.last_arrival or self.sources.queued > 0)
@@ -135,18 +168,19 @@ class MicroModel:
 
     def frame(self):
         """The discs with radius, velocity and pressure (t = 0: desired velocities, no contact forces yet)."""
+        extra = {"population": self.population[self.sim.ids]} if len(self.names) > 1 else {}
         if self.last is None:
             sim = self.sim
             u = sim.desired_velocity() if sim.count else np.zeros((0, 2))
-            return disc_frame(sim.q, sim.r, u, np.zeros(sim.count))
-        return disc_frame(self.last.q, self.last.r, self.last.u, self.last.pressure)
+            return disc_frame(sim.q, sim.r, u, np.zeros(sim.count), extra)
+        return disc_frame(self.last.q, self.last.r, self.last.u, self.last.pressure, extra)
 
     def snapshot(self) -> dict:
         """The discs to continue from (a checkpoint); the candidate list and the multipliers are rebuilt."""
         sim, last = self.sim, self.last
         pressure = last.pressure if last is not None else np.zeros(sim.count)
         return {"q": sim.q, "r": sim.r, "ids": sim.ids, "u": sim.u, "pressure": pressure, "t": sim.t,
-                "steps": sim.nstep, "evacuated": sim.evacuated, "next_id": sim._next_id,
+                "steps": sim.nstep, "evacuated": sim.evacuated, "next_id": sim._next_id, "population": self.population,
                 "evacuation_time": np.nan if self.evacuation_time is None else self.evacuation_time,
                 **parts(sources=self.sources, measure=self.measurements),
                 **({} if self.trajectories is None else {"trajectory_frame": self.trajectories.frame})}
@@ -156,6 +190,7 @@ class MicroModel:
         sim = self.sim
         sim.restart(data["q"], data["r"], data["ids"], data["u"], data["t"], data["steps"], data["evacuated"],
                     data["next_id"])
+        self.desired.population = self.population = data["population"].copy()
         restore_parts(data, sources=self.sources, measure=self.measurements)
         self.resumed_frame = int(data["trajectory_frame"]) if "trajectory_frame" in data else None
         self.evacuation_time = None if np.isnan(data["evacuation_time"]) else float(data["evacuation_time"])

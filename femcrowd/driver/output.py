@@ -121,12 +121,13 @@ def triangle_frame(domain, cell_data) -> meshio.Mesh:
     return meshio.Mesh(points, [("triangle", domain.triangles)], cell_data=data)
 
 
-def disc_frame(q, r, u, pressure) -> meshio.Mesh:
-    """A meshio point cloud of discs with radius, velocity (3 components) and pressure point data."""
+def disc_frame(q, r, u, pressure, extra=None) -> meshio.Mesh:
+    """A meshio point cloud of discs with radius, velocity (3 components) and pressure point data (and the
+    arrays of `extra`, e.g. population)."""
     points = np.column_stack([q, np.zeros(len(q))])
     return meshio.Mesh(points, [("vertex", np.arange(len(q)).reshape(-1, 1))],
                        point_data={"radius": r, "velocity": np.column_stack([u, np.zeros(len(q))]),
-                                   "pressure": pressure})
+                                   "pressure": pressure, **(extra or {})})
 
 
 class HistoryFile:

@@ -21,7 +21,8 @@ from .sources import read_sources
 
 @dataclass
 class Scene:
-    """The case, its domain, the exits over time (boundary), the desired velocity, the set-up times, and the
+    """The case, its domain, the exits over time (boundary), the desired velocity (of the first population),
+    the set-up times, the populations (driver/populations.py: velocity, speed law of each), and the
     sources, measurement lines and areas (empty lists when the case has none)."""
 
     case: Case
@@ -29,13 +30,16 @@ class Scene:
     boundary: Boundary
     velocity: object
     timing: dict = field(default_factory=dict)
+    populations: list = field(default_factory=list)
     sources: list = field(default_factory=list)
     lines: list = field(default_factory=list)
     areas: list = field(default_factory=list)
 
 
 def build_scene(case: Case) -> Scene:
-    """Load the mesh and build the desired velocity of a case (timed: mesh, desired_velocity)."""
+    """Load the mesh and build the desired velocity of each population (timed: mesh, desired_velocity)."""
+    from .populations import build_populations  # it builds on desired_velocity below
+
     tic = time.perf_counter()
     domain = load_domain(case.path(case["mesh"]["file"]), case["boundary"]["exits"],
                          case["mesh"]["refine"], case.file)
@@ -43,9 +47,10 @@ def build_scene(case: Case) -> Scene:
     sources = read_sources(case, domain)
     lines, areas = read_measurements(case, domain)
     toc = time.perf_counter()
-    velocity = desired_velocity(case, domain, boundary)
-    return Scene(case, domain, boundary, velocity,
-                 {"mesh": toc - tic, "desired_velocity": time.perf_counter() - toc}, sources, lines, areas)
+    populations = build_populations(case, domain, boundary)
+    return Scene(case, domain, boundary, populations[0].velocity,
+                 {"mesh": toc - tic, "desired_velocity": time.perf_counter() - toc}, populations,
+                 sources, lines, areas)
 
 
 def door_schedule(case: Case, domain: Domain) -> dict:
@@ -58,49 +63,51 @@ def door_schedule(case: Case, domain: Domain) -> dict:
     return schedule
 
 
-def desired_velocity(case: Case, domain: Domain, boundary: Boundary) -> FieldVelocity | ExitsVelocity:
-    """The [velocity] of the case; for type "exits" the distance field of the exits open at t = 0 is
-    computed here (set-up), those of other door states when they first occur."""
-    spec = case["velocity"]
+def desired_velocity(case: Case, domain: Domain, boundary: Boundary, spec=None, key=None,
+                     targets=None) -> FieldVelocity | ExitsVelocity:
+    """The [velocity] of the case (or `spec`, a population's velocity table, its keys named by key(name));
+    for type "exits" (towards the exits `targets`, default all) the distance field of the exits open at
+    t = 0 is computed here (set-up), those of other door states when they first occur."""
+    spec = case["velocity"] if spec is None else spec
+    key = key or (lambda name: f"velocity.{name}")
     if spec["type"] == "field":
         where = np.vstack([domain.centroid, domain.midpoint])
-        ux, uy = (_checked(case.expression("velocity", k), where, case, "velocity", k) for k in ("ux", "uy"))
+        ux, uy = (_checked(Expression(spec[k]), where, case, key(k), spec[k]) for k in ("ux", "uy"))
         return FieldVelocity(domain, ux, uy)
     if not domain.exit_group:
-        raise InputError(case.file, "velocity.type", "exits",
+        raise InputError(case.file, key("type"), "exits",
                          "needs at least one exit (set boundary.exits) or use type = 'field'")
-    speed = case.expression("velocity", "speed")
+    speed = Expression(spec["speed"])
     if speed.depends_on_time:
-        raise InputError(case.file, "velocity.speed", spec["speed"],
+        raise InputError(case.file, key("speed"), spec["speed"],
                          "must not depend on t for type = 'exits'")
-    values = _checked(speed, domain.centroid, case, "velocity", "speed")(*domain.centroid.T)
+    values = _checked(speed, domain.centroid, case, key("speed"), spec["speed"])(*domain.centroid.T)
     if values.min() < 0:
-        raise InputError(case.file, "velocity.speed", spec["speed"],
+        raise InputError(case.file, key("speed"), spec["speed"],
                          f"is negative ({values.min():.3g}) somewhere: people would walk away from the exits "
                          "(for such a scene give U itself: type = 'field')")
-    velocity = ExitsVelocity(domain, speed)
+    velocity = ExitsVelocity(domain, speed, targets)
     velocity.cells(boundary.at(0.0))
     return velocity
 
 
-def _checked(expr, xy, case, section, key):
+def _checked(expr, xy, case, key, value):
     """Evaluate once to reject non-finite values at load time; return the expression."""
     values = expr(xy[:, 0], xy[:, 1], 0.0)
     if not np.all(np.isfinite(values)):
-        raise InputError(case.file, f"{section}.{key}", case[section][key],
-                         "gives non-finite values on the mesh")
+        raise InputError(case.file, key, value, "gives non-finite values on the mesh")
     return expr
 
 
-def initial_density(case: Case, domain: Domain) -> np.ndarray:
-    """Cell averages of the initial density, scaled by rho_max."""
+def initial_density(case: Case, domain: Domain, source=None, key="initial.density") -> np.ndarray:
+    """Cell averages of the initial density (or of `source`, a population's, named `key`), scaled by rho_max."""
     rho_max = case["model"]["rho_max"]
-    density = domain.cell_average(Expression(case["initial"]["density"]))
+    source = case["initial"]["density"] if source is None else source
+    density = domain.cell_average(Expression(source))
     if not np.all(np.isfinite(density)):
-        raise InputError(case.file, "initial.density", case["initial"]["density"],
-                         "gives non-finite values on the mesh")
+        raise InputError(case.file, key, source, "gives non-finite values on the mesh")
     subdomains = domain.mesh.subdomains or {}
-    for name, value in case["initial"]["regions"].items():
+    for name, value in case["initial"]["regions"].items() if key == "initial.density" else ():
         if name not in subdomains:
             raise InputError(case.file, f"initial.regions.{name}", value,
                              f"no surface group of that name (groups: {', '.join(subdomains) or 'none'})")
@@ -110,14 +117,14 @@ def initial_density(case: Case, domain: Domain) -> np.ndarray:
     low, high = float(density.min()), float(density.max())
     if low < 0 or high > rho_max * (1 + 1e-12):
         bad = low if low < 0 else high
-        raise InputError(case.file, "initial.density", case["initial"]["density"],
-                         f"density {bad:g} is outside [0, rho_max = {rho_max:g}]")
+        raise InputError(case.file, key, source, f"density {bad:g} is outside [0, rho_max = {rho_max:g}]")
     return np.minimum(density / rho_max, 1.0)
 
 
-def initial_discs(case: Case, domain: Domain, exits) -> tuple[np.ndarray, np.ndarray]:
+def initial_discs(case: Case, domain: Domain, exits, rho=None) -> tuple[np.ndarray, np.ndarray]:
     """(q, r) of the disc model: from the CSV of [micro].positions, or sampled without overlap from the
-    initial density (clear of the walls and exits of `exits`)."""
+    initial density (clear of the walls and exits of `exits`); rho: the cell densities in units of rho_max
+    (default: [initial])."""
     spec = case["micro"]
     if spec["positions"] is not None:
         try:
@@ -131,7 +138,7 @@ def initial_discs(case: Case, domain: Domain, exits) -> tuple[np.ndarray, np.nda
                              f"{outside.sum()} disc centres lie outside the domain "
                              f"(first: {q[outside][0].tolist()})")
         return q, r
-    rho = initial_density(case, domain)  # cell values, scaled to [0, 1]
+    rho = initial_density(case, domain) if rho is None else rho  # cell values, scaled to [0, 1]
     q, r = sample_discs(lambda xy: rho[np.maximum(domain.locate(xy), 0)], domain.points,
                         domain.triangles, spec["radius"], spec["count"],
                         walls=exits.segments("wall"), exits=exits.segments("exit"), seed=spec["seed"])

@@ -86,9 +86,10 @@ class MacroSources:
         self.owner = np.concatenate([np.full(len(s.facets), k) for k, s in enumerate(sources)])
         self.rate = np.concatenate([s.flow / rho_max * domain.length[s.facets] for s in sources])
         pops = np.array([population_index(case, s, populations) for s in sources])
-        self.target = pops[self.owner] * domain.ncells + self.cells   # flat index into rho (populations, cells)
+        self.population = pops[self.owner]   # of each source facet
+        self.target = self.population * domain.ncells + self.cells   # flat index into rho (populations, cells)
         self.queue = np.zeros(len(self.facets))
-        self.inflow = 0.0
+        self.arrived = np.zeros(len(populations))   # per population
 
     def __call__(self, solver, state, dt: float) -> None:
         """Add what arrives during [t, t + dt] and fits to state.rho; the rest stays queued."""
@@ -106,17 +107,22 @@ class MacroSources:
         self.queue -= enter
         rho = state.rho.reshape(-1)   # a view: (populations, cells) flattened
         rho += np.bincount(self.target, enter, rho.size) / np.tile(area, len(state.rho))
-        self.inflow += float(enter.sum())
+        self.arrived += np.bincount(self.population, enter, len(self.arrived))
+
+    @property
+    def inflow(self) -> float:
+        """What entered so far, all populations."""
+        return float(self.arrived.sum())
 
     @property
     def queued(self) -> float:
         return float(self.queue.sum())
 
     def snapshot(self) -> dict:
-        return {"queue": self.queue.copy(), "inflow": self.inflow}
+        return {"queue": self.queue.copy(), "arrived": self.arrived.copy()}
 
     def restore(self, data: dict) -> None:
-        self.queue, self.inflow = data["queue"].copy(), float(data["inflow"])
+        self.queue, self.arrived = data["queue"].copy(), data["arrived"].copy()
 
 
 class MicroSources:
@@ -126,8 +132,9 @@ class MicroSources:
     the conversion of the initial sampling (saturation rho_max = the hexagonal packing).
     """
 
-    def __init__(self, case: Case, sources, domain: Domain, radius, walls, seed: int = 1):
+    def __init__(self, case: Case, sources, domain: Domain, radius, walls, seed: int = 1, populations=("crowd",)):
         lo, hi = (radius, radius) if np.isscalar(radius) else radius
+        self.populations = [population_index(case, s, populations) for s in sources]
         self.r = float(hi)   # slots fit the largest disc; arrivals get radii drawn like the initial ones
         self.radius = (float(lo), float(hi))
         mean_square = (lo * lo + lo * hi + hi * hi) / 3.0
@@ -160,14 +167,15 @@ class MicroSources:
         return np.array(kept).reshape(-1, 2)
 
     def arrivals(self, t: float, dt: float, q: np.ndarray, r: np.ndarray):
-        """Centres and radii of the discs that enter during [t, t + dt] next to the discs (q, r)."""
+        """Centres, radii and population indices of the discs that enter during [t, t + dt] next to the
+        discs (q, r)."""
         self.pending += [rate * s.window(t, dt) for rate, s in zip(self.rate, self.sources)]
         wanted = np.floor(self.pending + 1e-9).astype(int)
         if not wanted.any():
-            return np.zeros((0, 2)), np.zeros(0)
+            return np.zeros((0, 2)), np.zeros(0), np.zeros(0, int)
         tree = cKDTree(q) if len(q) else None
         reach = self.r + (r.max() if len(r) else 0.0)
-        new_q, new_r = [], []
+        new_q, new_r, new_p = [], [], []
         for k, slots in enumerate(self.slots):
             if not wanted[k] or not len(slots):
                 continue
@@ -181,11 +189,13 @@ class MicroSources:
             new_q.append(slots[chosen])
             lo, hi = self.radius
             new_r.append(np.full(len(chosen), lo) if lo == hi else self.rng.uniform(lo, hi, len(chosen)))
+            new_p.append(np.full(len(chosen), self.populations[k]))
             self.pending[k] -= len(chosen)
         q_in = np.concatenate(new_q) if new_q else np.zeros((0, 2))
         r_in = np.concatenate(new_r) if new_r else np.zeros(0)
+        p_in = np.concatenate(new_p).astype(int) if new_p else np.zeros(0, int)
         self.inflow += len(q_in)
-        return q_in, r_in
+        return q_in, r_in, p_in
 
     @property
     def queued(self) -> float:

@@ -24,3 +24,10 @@ def invariants(domain, state) -> dict:
         # NaN/inf would be invisible in the min/max above (comparisons with NaN are False): count them
         "non_finite": int(np.count_nonzero(~np.isfinite(state.rho)) + np.count_nonzero(~np.isfinite(p))),
     }
+
+
+def population_invariants(domain, state) -> dict:
+    """Per population: its mass, its evacuated mass and its smallest density (several populations)."""
+    mass = state.rho @ domain.area
+    return {name: {"mass": float(mass[i]), "evacuated": float(state.evacuated[i].sum()),
+                   "min_density": float(state.rho[i].min())} for i, name in enumerate(state.populations)}

@@ -8,6 +8,11 @@ Santambrogio 2010; docs/model.md).
 on the exits open at t^n (mesh/boundary.py). Densities are in units of rho_max (rho = 1 is
 saturation); the driver converts to and from the user's unit. Hooks run before the prediction
 (sources) and after the correction (measurements).
+
+A population with a speed law (U = f(rho) U0, speed_law.py) is transported with the LWR fluxes
+(transport/lwr.py); when no population pushes at saturation (f(1) = 0 for all) the density never
+exceeds 1 and the projection is never built nor called. Several populations share the correction
+by an implicit upwind split of its facet fluxes (populations.py).
 """
 
 import time
@@ -15,10 +20,17 @@ from collections import defaultdict
 
 import numpy as np
 
-from .projection import CellOrder, Projection
+from .populations import split_correction
+from .projection import CellOrder, PressureFlux, Projection
 from .reconstruction import actual_velocity
 from .state import MacroState
 from .transport import TRANSPORTS
+from .transport.lwr import LWRTransport, joint_max_dt
+
+#: the info of a step whose correction is not needed (no population pushes at saturation)
+NO_PROJECTION = {"iterations": 0, "factorizations": 0, "band_solves": 0, "linear_residual": 0.0, "unknowns": 0,
+                 "linear_iterations": 0, "rebuilds": 0, "predict": 0.0, "setup": 0.0, "solve": 0.0,
+                 "detect": 0.0, "active_set": 0.0}
 
 
 class MacroSolver:
@@ -27,9 +39,13 @@ class MacroSolver:
     t); ``before_step`` hooks f(solver, state, dt), ``after_step`` hooks f(solver, state, info)."""
 
     def __init__(self, domain, boundary, velocities, transport="upwind", cfl=0.5, dt=None,
-                 direct_max=1_000_000, tol=1e-12):
-        """velocities: the desired velocity of each population (femcrowd.macro.velocity)."""
+                 direct_max=1_000_000, tol=1e-12, laws=None):
+        """velocities: the desired velocity U0 of each population (femcrowd.macro.velocity); laws: the
+        speed law of each population (femcrowd.macro.speed_law.SpeedLaw, None or "constant": f = 1)."""
         self.domain, self.boundary, self.velocities = domain, boundary, list(velocities)
+        self.laws = [None if law is None or law.constant else law for law in (laws or [None] * len(self.velocities))]
+        #: False when every population has f(1) = 0: the density stays <= 1 without the projection
+        self.needs_projection = any(law is None or law.saturates for law in self.laws)
         self.transport_class = TRANSPORTS[transport]
         self.cfl, self.fixed_dt = cfl, dt
         self.direct_max, self.tol = direct_max, tol
@@ -45,8 +61,10 @@ class MacroSolver:
         steady = all(v.steady for v in self.velocities)
         built = self._transports
         if built is None or built[0] is not exits or (not steady and built[1] != state.t):
-            schemes = [self.transport_class(self.domain, exits, v.normal_on_facets(state, exits), v.potential(exits))
-                       for v in self.velocities]
+            schemes = [LWRTransport(self.domain, exits, v.normal_on_facets(state, exits), law) if law is not None
+                       else self.transport_class(self.domain, exits, v.normal_on_facets(state, exits),
+                                                 v.potential(exits))
+                       for v, law in zip(self.velocities, self.laws)]
             self._transports = built = (exits, state.t, schemes)
         return built[2]
 
@@ -71,9 +89,12 @@ class MacroSolver:
         """
         schemes = self.transports(state, self.boundary.at(state.t))
         max_dt = min(s.max_dt for s in schemes)
+        lwr = [s for s in schemes if isinstance(s, LWRTransport)]
+        if len(lwr) > 1:  # the bound of the total density takes every population's flux into a cell
+            max_dt = min(max_dt, joint_max_dt(self.domain, lwr))
         if self.fixed_dt is None:
             return self.cfl * max_dt
-        return min(self.fixed_dt, min(s.max_cfl * s.max_dt for s in schemes))
+        return min(self.fixed_dt, min(s.max_cfl * s.max_dt for s in schemes), max_dt)
 
     def step(self, state: MacroState, until: float = np.inf) -> dict:
         """Advance the state by one step, not beyond time ``until``; return the step's diagnostics
@@ -90,13 +111,18 @@ class MacroSolver:
             hook(self, state, dt)
         rho_tilde = np.empty_like(state.rho)
         outflow = np.zeros_like(state.evacuated)
-        for i, scheme in enumerate(schemes):
-            rho_tilde[i], outflow[i] = scheme.step(state.rho[i], dt)
+        for i, (scheme, seen) in enumerate(zip(schemes, self._seen(state, schemes))):
+            rho_tilde[i], outflow[i] = scheme.step(state.rho[i], dt, *seen)
         toc = time.perf_counter()
-        projection, pressure_outflow = self.projection(exits)
-        flux, info = projection(rho_tilde[0] if len(rho_tilde) == 1 else rho_tilde.sum(axis=0))
-        state.rho = self._correct(rho_tilde, flux)
-        outflow[0] += pressure_outflow @ flux.phi
+        if self.needs_projection:
+            projection, pressure_outflow = self.projection(exits)
+            flux, info = projection(rho_tilde[0] if len(rho_tilde) == 1 else rho_tilde.sum(axis=0))
+            state.rho, pushed_out = self._correct(rho_tilde, flux, exits, pressure_outflow)
+            outflow += pushed_out
+        else:
+            empty = np.zeros(0, np.intp)
+            flux, info = PressureFlux(np.zeros(self.domain.ncells), empty, np.zeros(0)), dict(NO_PROJECTION)
+            state.rho = rho_tilde
         state.p = flux.phi / dt
         state.evacuated += outflow
         state.t = t_new
@@ -110,13 +136,41 @@ class MacroSolver:
         self.timers["projection"] += tic + result["step_seconds"] - toc   # with the state update and hooks
         return result
 
-    def _correct(self, rho_tilde, flux):
-        """rho^{n+1} from rho~ and the pressure flux (one population: rho~ - (A phi) / |K|)."""
-        if len(rho_tilde) != 1:
-            raise NotImplementedError("the correction of several populations")
-        return flux.apply(rho_tilde[0], self.domain.area)[None]
+    def facet_flux(self, state: MacroState, dt: float) -> np.ndarray:
+        """The mass each facet carries f2t[0] -> f2t[1] in the coming prediction of all populations
+        (measurement lines; their before-step hook calls it once the sources are added)."""
+        schemes = self.transports(state, self.boundary.at(state.t))
+        return sum(scheme.facet_flux(rho, dt, *seen)
+                   for scheme, rho, seen in zip(schemes, state.rho, self._seen(state, schemes)))
+
+    @staticmethod
+    def _seen(state: MacroState, schemes):
+        """The extra argument of each population's prediction: the total density its speed law sees
+        (several populations with a speed law), else nothing."""
+        total = (state.density,) if len(schemes) > 1 else ()
+        return [total if isinstance(s, LWRTransport) else () for s in schemes]
+
+    def _correct(self, rho_tilde, flux, exits, pressure_outflow):
+        """rho^{n+1} and the mass the correction pushes out through each exit, per population: for one
+        population rho~ - (A phi) / |K|; for several the implicit upwind split (populations.py)."""
+        if len(rho_tilde) == 1:
+            return flux.apply(rho_tilde[0], self.domain.area)[None], (pressure_outflow @ flux.phi)[None]
+        total = flux.apply(rho_tilde.sum(axis=0), self.domain.area)
+        return split_correction(self.domain, exits, flux, rho_tilde, total)
 
     def velocity_field(self, state: MacroState) -> np.ndarray:
-        """Actual velocity u = U - grad p per cell (of the first population's U)."""
+        """Actual velocity u = U - grad p per cell, U = f(rho) U0 (the mean of the populations' U_i
+        weighted by their shares of the cell's density)."""
         exits = self.boundary.at(state.t)
-        return actual_velocity(self.domain, exits, self.velocities[0].normal_on_facets(state, exits), state.p)
+        if len(self.velocities) == 1 and self.laws[0] is None:
+            return actual_velocity(self.domain, exits, self.velocities[0].normal_on_facets(state, exits), state.p)
+        rho = state.density
+        with np.errstate(invalid="ignore", divide="ignore"):
+            share = np.where(rho > 0, state.rho / rho, 1.0 / len(state.rho))
+        k0, k1 = self.domain.f2t
+        sides = (k0, np.where(k1 >= 0, k1, k0))
+        normal = 0.0
+        for i, (velocity, law) in enumerate(zip(self.velocities, self.laws)):
+            weight = share[i] * (law(rho) if law is not None else 1.0)
+            normal = normal + np.stack([weight[k] for k in sides]) * velocity.normal_on_facets(state, exits)
+        return actual_velocity(self.domain, exits, normal, state.p)

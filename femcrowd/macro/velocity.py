@@ -16,9 +16,10 @@ Two kinds, chosen by ``[velocity].type``:
 - ``field``: U = (ux, uy), expressions in x, y, t. The transport uses U . n at facet
   midpoints; no distance field is computed.
 - ``exits``: U = -v grad d / |grad d|, with d the shortest-path distance inside the domain
-  to the nearest open exit (nodal, :func:`femcrowd.mesh.distance.exit_distance`, computed
-  once per set of open exits) and grad d the P1 gradient per triangle; each facet has the
-  normal velocity of each of its two cells (flux splitting, see transport/upwind.py). Where
+  to the nearest open exit of those the population heads for (nodal,
+  :func:`femcrowd.mesh.distance.exit_distance`, computed once per set of open exits) and grad d
+  the P1 gradient per triangle; each facet has the normal velocity of each of its two cells
+  (flux splitting, see transport/upwind.py). Where
   d is infinite (no path to any exit) or grad d vanishes, U = 0: people who cannot reach an
   exit stay where they are (but are still pushed by the pressure if their region is saturated).
 """
@@ -48,32 +49,48 @@ class FieldVelocity:
 
 
 class ExitsVelocity:
-    """U = -speed grad d/|grad d| from the distance d to the open exits (one field per set of open exits)."""
+    """U = -speed grad d/|grad d| from the distance d to the open exits (one field per set of open exits);
+    ``targets``: the names of the exits this population heads for (None: all exits)."""
 
     steady = True
 
-    def __init__(self, domain, speed):
+    def __init__(self, domain, speed, targets=None):
         self.domain = domain
         self.speed = speed(domain.centroid[:, 0], domain.centroid[:, 1], 0.0)
-        self._cells = {}  # per set of open exits
+        self.targets = None if targets is None else frozenset(targets)
+        self._cells = {}  # per set of open target exits
         self.distance = {}
 
     def cells(self, exits) -> np.ndarray:
         """U per cell for these open exits (the distance field is computed on first use)."""
-        if exits.open not in self._cells:
-            d = self.distance[exits.open] = exit_distance(self.domain.points, self.domain.triangles, exits.edges())
+        heading = self._heading(exits)
+        if heading not in self._cells:
+            d = self.distance[heading] = exit_distance(self.domain.points, self.domain.triangles,
+                                                       self._edges(exits, heading))
             grad = _p1_gradient(self.domain, d)
             norm = np.hypot(grad[:, 0], grad[:, 1])
             ok = np.isfinite(norm) & (norm > 0)
             cells = np.zeros((self.domain.ncells, 2))
             cells[ok] = -(self.speed[ok] / norm[ok])[:, None] * grad[ok]
-            self._cells[exits.open] = cells
-        return self._cells[exits.open]
+            self._cells[heading] = cells
+        return self._cells[heading]
+
+    def _heading(self, exits) -> tuple:
+        """The open exits this population heads for."""
+        return exits.open if self.targets is None else tuple(n for n in exits.open if n in self.targets)
+
+    def _edges(self, exits, heading):
+        """Node pairs of the open exit facets this population heads for."""
+        if heading == exits.open:
+            return exits.edges()
+        wanted = np.isin(exits.group, [exits.names.index(n) for n in heading])
+        return self.domain.mesh.facets[:, wanted & exits.exit].T
 
     def potential(self, exits) -> np.ndarray:
-        """The distance to the open exits per cell (mean of its nodes; cells cut off from every exit last)."""
+        """The distance to the open exits this population heads for, per cell (mean of its nodes; cells cut
+        off from every exit last)."""
         self.cells(exits)
-        d = self.distance[exits.open][self.domain.triangles].mean(axis=1)
+        d = self.distance[self._heading(exits)][self.domain.triangles].mean(axis=1)
         return np.where(np.isfinite(d), d, -1.0)
 
     def at_points(self, xy: np.ndarray, t: float, exits) -> np.ndarray:

@@ -12,6 +12,8 @@ pv.OFF_SCREEN = True
 BACKGROUND, TEXT = "white", "#202020"
 WALL, EXIT, OBSTACLE, FLOOR = "#6e6e6e", "#00a651", "#bdbdbd", "#ebebe6"
 CMAPS = {"density": "YlOrRd", "pressure": "PuBu"}
+#: one colour map per population (density_<name> arrays), in the order of the case's tables
+POPULATION_CMAPS = ("Blues", "Reds", "Greens", "Purples", "Oranges", "Greys")
 PRESSURE_TITLE = "pressure p (m^2/s)"  # u = U - grad p: p has units of speed x length
 DISC_PRESSURE_TITLE = "pressure: sum of contact multipliers (m/s)"  # u + B^T lambda = U
 
@@ -95,6 +97,66 @@ class Canvas:
             self.layer.mapper.dataset = mesh
             self.layer.mapper.SetScalarRange(*clim)
 
+    def show_populations(self, mesh, names, top, bar_title):
+        """Colour each cell by its populations, each in its own colour map (POPULATION_CMAPS) at its own
+        density in [0, top], mixed in proportion to their shares of the cell's density (empty cells show the
+        floor); one colour bar per population. First call adds the layers, later calls replace the data."""
+        import matplotlib
+
+        rho = np.column_stack([np.asarray(mesh.cell_data[f"density_{name}"], float) for name in names])
+        total = rho.sum(axis=1)
+        share = np.divide(rho, total[:, None], out=np.zeros_like(rho), where=total[:, None] > 0)
+        colour = sum(share[:, [k]] * matplotlib.colormaps[POPULATION_CMAPS[k % len(POPULATION_CMAPS)]](
+            np.clip(rho[:, k] / top, 0, 1))[:, :3] for k in range(len(names)))
+        shown = mesh.extract_cells(np.flatnonzero(total > 1e-3 * top))
+        shown.cell_data["rgb"] = np.round(255 * colour[shown.cell_data["vtkOriginalCellIds"]]).astype(np.uint8)
+        if self.layer is not None:
+            self.plotter.remove_actor(self.layer)
+        self.layer = self.plotter.add_mesh(shown, scalars="rgb", rgb=True, lighting=False) if shown.n_cells else None
+        if self.outline is None:  # the colour bars, once: hidden layers that only carry a colour map each
+            w, h, bar_height = self.width, self.height, 50
+            self.outline = []
+            for k, name in enumerate(names):
+                width = 0.8 / len(names)
+                bar = dict(title=f"{name}: {bar_title}", vertical=False, n_labels=tick_count(top), fmt="%.3g",
+                           color=TEXT, position_x=0.1 + k * width + 0.1 * width, width=0.8 * width,
+                           position_y=8 / h, height=bar_height / h, label_font_size=max(10, w // 60),
+                           unconstrained_font_size=True)
+                hidden = self.plotter.add_mesh(mesh, scalars=f"density_{name}", clim=(0, top), lighting=False,
+                                               cmap=POPULATION_CMAPS[k % len(POPULATION_CMAPS)], scalar_bar_args=bar)
+                hidden.SetVisibility(False)
+                scalar_bar = self.plotter.scalar_bars[bar["title"]]   # labels below the bar, our title above
+                scalar_bar.SetTitle("")
+                scalar_bar.SetTextPositionToPrecedeScalarBar()
+                scalar_bar.SetBarRatio(0.45)
+                title = self.plotter.add_text(bar["title"], position=(w * (bar["position_x"] + bar["width"] / 2),
+                                                                      8 + bar_height + 6),
+                                              font_size=max(9, w // 90), color=TEXT)
+                title.prop.justification_horizontal = "center"
+                self.outline.append(hidden)
+
+    def show_disc_populations(self, frame, names):
+        """Discs of a micro frame coloured by their population (a colour of POPULATION_CMAPS each, a legend)."""
+        import matplotlib
+
+        for actor in (self.layer, self.outline):
+            if actor is not None:
+                self.plotter.remove_actor(actor)
+        self.layer = self.outline = None
+        colours = np.array([matplotlib.colormaps[POPULATION_CMAPS[k % len(POPULATION_CMAPS)]](0.75)[:3]
+                            for k in range(len(names))])
+        if not getattr(self, "_legend", False):
+            self.plotter.add_legend([[name, tuple(c)] for name, c in zip(names, colours)], bcolor="white",
+                                    loc="lower center", size=(0.12 + 0.08 * len(names), 0.04 + 0.035 * len(names)),
+                                    face="circle")
+            self._legend = True
+        if not frame.n_points:
+            return
+        fill, outline = disc_glyphs(frame)
+        fill.point_data["rgb"] = np.round(255 * colours[fill.point_data["population"].astype(int)]).astype(np.uint8)
+        self.layer = self.plotter.add_mesh(fill, scalars="rgb", rgb=True, lighting=False)
+        self.outline = self.plotter.add_mesh(outline, color=TEXT, line_width=1, lighting=False)
+
     def show_discs(self, frame, clim):
         """Discs of a micro frame coloured by their pressure, with outlines (none: the room is empty)."""
         if self.outline is not None:
@@ -149,7 +211,7 @@ def bounds(points):
 def disc_glyphs(frame):
     """Disc fill (coloured by pressure) and outlines as glyphs of a unit polygon scaled by the radius."""
     centres = pv.PolyData(np.asarray(frame.points, float))
-    for name in ("radius", "pressure"):
+    for name in ("radius", "pressure", "population"):
         centres.point_data[name] = (np.asarray(frame.point_data[name], float) if name in frame.point_data
                                     else np.zeros(frame.n_points))
     unit = pv.Polygon(center=(0, 0, 0), radius=1.0, normal=(0, 0, 1), n_sides=24)

@@ -6,6 +6,8 @@ or ``discs.pvd`` (micro: points with radius, pressure), ``history.csv`` and
 
 - ``density_tXXX.png`` and ``pressure_tXXX.png`` at the chosen times (macro),
   ``discs_tXXX.png`` (micro: discs coloured by their pressure);
+- ``populations_tXXX.png`` for several populations (macro: each population in its own colour map, from
+  the ``density_<name>`` arrays; micro: each disc in the colour of its population);
 - ``density.gif`` (or ``.mp4`` with imageio-ffmpeg; micro: ``discs.gif``);
 - ``curves.png``: people inside and evacuated, flow rate per exit, max
   pressure, saturated area (micro: contacts and max overlap) against time;
@@ -142,8 +144,25 @@ def pictures(run, plan, times, out):
                     written.append(out / f"{field}_{_stamp(t, series)}.png")
                     canvas.save(written[-1])
                 canvas.close()
+            written += _population_pictures(run, plan, series, chosen, frames, out)
         else:
             written += _disc_pictures(run, plan, series, chosen, frames, out)
+    return written
+
+
+def _population_pictures(run, plan, series, chosen, frames, out):
+    """populations_tXXX.png: the density of each population in its own colour map (several populations)."""
+    names = [name[len("density_"):] for name in frames[0].cell_data if name.startswith("density_")]
+    if not names:
+        return []
+    written, canvas = [], plan.canvas(PICTURE_WIDTH)
+    for k, frame in zip(chosen, frames):
+        t = series[k][0]
+        canvas.show_populations(frame, names, run.rho_max, density_title(run.rho_max))
+        canvas.title(f"{run.title}\n{', '.join(names)} at t = {t:.4g} s")
+        written.append(out / f"populations_{_stamp(t, series)}.png")
+        canvas.save(written[-1])
+    canvas.close()
     return written
 
 
@@ -153,15 +172,22 @@ def _disc_range(frames):
 
 
 def _disc_pictures(run, plan, series, chosen, frames, out):
+    """discs_tXXX.png (discs coloured by their pressure) and, for several populations, populations_tXXX.png
+    (coloured by their population)."""
     written, clim = [], _disc_range(frames)
-    canvas = plan.canvas(PICTURE_WIDTH)
-    for k, frame in zip(chosen, frames):
-        t = series[k][0]
-        canvas.show_discs(frame, clim)
-        canvas.title(f"{run.title}\n{frame.n_points} discs at t = {t:.4g} s")
-        written.append(out / f"discs_{_stamp(t, series)}.png")
-        canvas.save(written[-1])
-    canvas.close()
+    names = list(run.summary.get("populations", {}))
+    for stem in ("discs", "populations") if names else ("discs",):
+        canvas = plan.canvas(PICTURE_WIDTH)
+        for k, frame in zip(chosen, frames):
+            t = series[k][0]
+            if stem == "discs":
+                canvas.show_discs(frame, clim)
+            else:
+                canvas.show_disc_populations(frame, names)
+            canvas.title(f"{run.title}\n{frame.n_points} discs at t = {t:.4g} s")
+            written.append(out / f"{stem}_{_stamp(t, series)}.png")
+            canvas.save(written[-1])
+        canvas.close()
     return written
 
 

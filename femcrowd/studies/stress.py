@@ -27,7 +27,7 @@ from ..case import load_case
 from ..driver import run
 from ..driver.output import prepare_output_dir
 from ..errors import InputError
-from .stress_checks import CHECKS, LINEAR_TOL, MASS_TOL, RHO_TOL, Check, Output
+from .stress_checks import CHECKS, LINEAR_TOL, MASS_TOL, RHO_TOL, Check, Output, population_invariants
 
 #: the scenes of a source checkout
 CASES = Path(__file__).resolve().parents[2] / "cases" / "stress"
@@ -79,6 +79,7 @@ def invariants(s: dict, rho_max: float = 1.0) -> list:
               f"{s['max_complementarity']:.1e}"),
         Check("linear residual", s["max_linear_residual"] <= LINEAR_TOL, f"{s['max_linear_residual']:.1e}"),
         Check("no NaN/inf", s["non_finite_values"] == 0, str(s["non_finite_values"])),
+        *population_invariants(s),
     ]
 
 

@@ -70,6 +70,16 @@ class Output:
         return float(self.domain.area.sum() / (x.max() - x.min()))
 
 
+def population_invariants(s):
+    """Mass balance and rho_i >= 0 of each population, over the whole run (runs with several populations)."""
+    checks = []
+    for name, p in s.get("populations", {}).items():
+        checks += [Check(f"{name}: mass + evacuated conserved", p["max_mass_error"] <= MASS_TOL,
+                         f"{p['max_mass_error']:.1e}"),
+                   Check(f"{name}: rho >= 0", p["min_density_ever"] >= 0, f"{p['min_density_ever']:.3g}")]
+    return checks
+
+
 def wall_accumulation(run, halves=1, pressure=True):
     """Exact solution 1 (``halves=2``: two crowds meeting head-on, each half is solution 1 mirrored).
 
@@ -261,6 +271,17 @@ def expanding_block(run, divergence=2.0):
             close("core density = prod(1 - div U dt)", run.last("max_density") / run.rho_max, core, 1e-12)]
 
 
+def populations_head_on(run):
+    """Two populations meet head-on: when the last of each block arrives everyone is packed (the total is
+    solution 1 on each side; the rear arrives smeared over a few cells), and each population has crossed
+    the contact line in part (the model mixes them there, docs/extensions.md)."""
+    mass, packed, h, width = run.last("mass"), run.last("saturated_area"), run.h, run.width
+    east, x = run.frame(-1)["density_east"] / run.rho_max, run.domain.centroid[:, 0]
+    far = float(run.domain.area[x > 0] @ east[x > 0] / (run.domain.area @ east))
+    return [close("packed: saturated area = mass", packed, mass, 4 * h * 2 * width),
+            Check("east crossed x = 0 in part", 0.0 < far < 0.5, f"{far:.3g} of it beyond")]
+
+
 CHECKS = {
     "wall-a099": wall_accumulation, "wall-a0999": wall_accumulation_stiff,
     "closed-saturated": closed_saturated, "saturated-exit-room": saturated_exit,
@@ -268,5 +289,5 @@ CHECKS = {
     "door-one-edge": door_one_edge, "door-wide": free_flow, "random-islands": islands,
     "slivers": slivers, "graded": graded, "long-run": long_run, "u-zero": u_zero,
     "u-into-walls": into_walls, "trapped": trapped, "cfl-one": saturated_evacuation,
-    "expanding-block": expanding_block,
+    "expanding-block": expanding_block, "populations-head-on": populations_head_on,
 }

@@ -5,10 +5,13 @@ cell field decreasing downstream, when U has one) and offers ``step(rho, dt) -> 
 exit)``, ``facet_flux(rho, dt)`` (the mass each facet carries in that step, for measurement lines;
 computed only when asked), ``max_dt`` (the CFL-1 step of the upwind scheme for this U) and
 ``max_cfl`` (the largest fraction of it the scheme accepts). ``TRANSPORTS`` is the one list of
-schemes: ``[scheme] transport`` of a case takes its keys.
+schemes: ``[scheme] transport`` of a case takes its keys. ``LWRTransport`` (the fluxes of a speed
+that depends on the density, built with the law instead of a potential) is chosen by
+``[velocity] speed_law``, not by name.
 """
 
 from .implicit import ImplicitUpwindTransport
+from .lwr import LWRTransport
 from .muscl import CompressiveTransport, MUSCLTransport
 from .upwind import UpwindTransport
 
@@ -17,4 +20,5 @@ from .upwind import UpwindTransport
 TRANSPORTS = {"upwind": UpwindTransport, "muscl": MUSCLTransport, "compressive": CompressiveTransport,
               "implicit": ImplicitUpwindTransport}
 
-__all__ = ["TRANSPORTS", "CompressiveTransport", "ImplicitUpwindTransport", "MUSCLTransport", "UpwindTransport"]
+__all__ = ["TRANSPORTS", "CompressiveTransport", "ImplicitUpwindTransport", "LWRTransport", "MUSCLTransport",
+           "UpwindTransport"]

@@ -1,0 +1,131 @@
+"""Cost per step of k populations against one, on the benchmark hall of benchmarks/scale.py (issue 16).
+
+Scene: the 20 m x 15 m hall with a 2 m door in the wall x = 20, U towards the door at 1 m/s, crowd at
+density 1 within 7 m of the door and 0.85 elsewhere beyond x = 3 (a large saturated zone from the first
+step). k populations: the same crowd cut into k horizontal stripes, one population each, with the same
+desired velocity: the total moves exactly as one population, so the projection is the same and the
+difference is the cost of the populations (k transports and the split of the correction).
+
+Every configuration runs in its own process (femcrowd.load_case + femcrowd.Simulation, OPENBLAS with one
+thread), `--steps` steps after 3 warm-up steps, and reports the median step; the configurations
+alternate over `--repeat` rounds so that a slow period of the machine hits them all, and the table gives
+the median over the rounds. With ``--baseline DIR`` (a checkout of femcrowd, e.g. the commit this
+feature started from: ``git worktree add /tmp/base16 a5b1ec9``) one population also runs on that code,
+in the same rounds.
+
+    python benchmarks/populations.py                          # 10^4 triangles, k = 1, 2, 4
+    python benchmarks/populations.py --sizes 1e4 1e5 --baseline /tmp/base16
+"""
+
+import argparse
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+CACHE = Path(__file__).resolve().parent / ".cache"
+HALL = """size = {size:.6g}
+[outer]
+points = [[0, 0], [20, 0], [20, 15], [0, 15]]
+[[exits]]
+name = "exit"
+from = [20, 6.5]
+to = [20, 8.5]
+"""
+AREA = 300.0
+DENSITY = "where((x - 20)**2 + (y - 7.5)**2 < 49, 1.0, 0.85 * (x > 3))"
+
+
+def mesh_file(target):
+    """The gmsh mesh of the hall with about `target` triangles (made on first use)."""
+    from femcrowd.mesh.floorplan import build_mesh
+
+    path = CACHE / f"hall_{int(target)}.msh"
+    if not path.exists():
+        CACHE.mkdir(exist_ok=True)
+        plan = path.with_suffix(".toml")
+        plan.write_text(HALL.format(size=math.sqrt(2.31 * AREA / target)))
+        build_mesh(plan, path)
+    return path
+
+
+def case_text(mesh, k):
+    """case.toml of the hall with the crowd in k populations (k = 1: [initial], as before populations)."""
+    text = f'[mesh]\nfile = "{mesh}"\n[boundary]\nexits = ["exit"]\n[time]\nend = 1e9\n[output]\nevery = 1e9\n'
+    if k == 1:
+        return text + f'[initial]\ndensity = "{DENSITY}"\n'
+    for i in range(k):
+        stripe = f"(y >= {15 * i / k:.6g}) * (y < {15 * (i + 1) / k:.6g})" if i < k - 1 else f"(y >= {15 * i / k:.6g})"
+        text += f'[populations.p{i}]\ndensity = "({DENSITY}) * {stripe}"\n'
+    return text
+
+
+def worker(target, k, steps):
+    """Run `steps` steps (after 3 warm-up steps) of the hall with k populations; print the medians (JSON)."""
+    import femcrowd
+
+    with tempfile.TemporaryDirectory() as tmp:
+        (Path(tmp) / "case.toml").write_text(case_text(mesh_file(target), k))
+        model = femcrowd.Simulation(femcrowd.load_case(tmp)).model
+        for _ in range(3):
+            model.step(math.inf)
+        before = dict(model.solver.timers)
+        durations = []
+        for _ in range(steps):
+            tic = time.perf_counter()
+            model.step(math.inf)
+            durations.append(time.perf_counter() - tic)
+        timers = {name: (value - before.get(name, 0.0)) / steps for name, value in model.solver.timers.items()}
+    print(json.dumps({"step": float(np.median(durations)), "cells": model.domain.ncells, **timers}))
+
+
+def measure(code, target, k, steps):
+    """One configuration in a fresh process on the femcrowd of `code` (a checkout, or None: this one)."""
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+    if code is not None:
+        env["PYTHONPATH"] = str(code)
+    done = subprocess.run([sys.executable, __file__, "--worker", str(target), str(k), str(steps)], env=env,
+                          capture_output=True, text=True, check=True)
+    return json.loads(done.stdout.splitlines()[-1])
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", nargs="+", type=float, default=[1e4])
+    parser.add_argument("--populations", default="1,2,4")
+    parser.add_argument("--steps", type=int, default=20)
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--baseline", help="a checkout of femcrowd to time one population on (before/after)")
+    parser.add_argument("--worker", nargs=3, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.worker:
+        return worker(float(args.worker[0]), int(args.worker[1]), int(args.worker[2]))
+    ks = [int(k) for k in args.populations.split(",")]
+    configs = ([("baseline", args.baseline, 1)] if args.baseline else []) + [(f"k = {k}", None, k) for k in ks]
+    print("| triangles | configuration | step (median) | transport | projection + split | step / one population "
+          "| bound 1 + 0.2 k |")
+    print("|---:|---|---:|---:|---:|---:|---:|")
+    for target in args.sizes:
+        mesh_file(target)
+        runs = {name: [] for name, _, _ in configs}
+        for _ in range(args.repeat):
+            for name, code, k in configs:
+                runs[name].append(measure(code, target, k, args.steps))
+        one = np.median([r["step"] for r in runs["k = 1"]])
+        for name, _, k in configs:
+            step = np.median([r["step"] for r in runs[name]])
+            transport = np.median([r["transport"] for r in runs[name]])
+            projection = np.median([r["projection"] for r in runs[name]])
+            bound = f"{1 + 0.2 * k:.1f}" if name != "baseline" else ""
+            print(f"| {runs[name][0]['cells']} | {name} | {1e3 * step:.2f} ms | {1e3 * transport:.2f} ms | "
+                  f"{1e3 * projection:.2f} ms | {step / one:.3f} | {bound} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,117 @@
+"""A desired speed that depends on the density (Maury, Roudneff-Chupin, Santambrogio, Venel 2011, section on
+extensions): people slow down in a dense crowd, in the spirit of road-traffic models,
+
+    U(x, rho) = f(rho) U0(x),   f non-increasing on [0, 1], 0 <= f <= 1,
+
+with rho in units of rho_max. The prediction is then the scalar conservation law
+d_t rho + div(rho f(rho) U0) = 0 (Lighthill, Whitham 1955; Richards 1956: LWR) with the flux
+g(r) = r f(r) along U0. If f(1) = 0 nobody walks into a saturated crowd and the density never
+exceeds 1 (no projection is needed); if f(1) > 0 people still push and the projection acts.
+
+Laws (``[velocity] speed_law``): "constant" (f = 1, the model of docs/model.md), "linear"
+(f = 1 - rho), "weidmann" (Weidmann 1993: v = v0 (1 - exp(-gamma (1/rho - 1/rho_max))),
+gamma = 1.913 m^-2, rho in persons/m^2 and rho_max = model.rho_max, 5.4 m^-2 in Weidmann's
+fit; v0 is velocity.speed) or an expression in rho. A law is sampled once on [0, 1]: its
+range, monotonicity, the maximiser r* of g and whether g is unimodal (increasing, then
+decreasing), and its Lipschitz constant (for the CFL condition).
+"""
+
+import numpy as np
+
+from ..case.expressions import Expression, ExpressionError
+
+#: Weidmann (1993), the fundamental diagram of pedestrian flow on a level floor
+WEIDMANN_GAMMA = 1.913  # m^-2
+#: the names of the laws; anything else is an expression in rho
+NAMES = ("constant", "linear", "weidmann")
+#: samples of [0, 1] on which a law is checked and its constants are measured
+SAMPLES = 4097
+#: margin on the sampled Lipschitz constant of g (the CFL condition uses it)
+LIPSCHITZ_MARGIN = 1.01
+
+
+class LawError(ValueError):
+    """A speed law that is not a function f: [0, 1] -> [0, 1], finite and non-increasing."""
+
+
+class SpeedLaw:
+    """f(rho) on [0, 1] (rho in units of rho_max): the factor of the desired speed, and the LWR flux
+    g(r) = r f(r) with its demand and supply (Lebacque 1996) when g is unimodal."""
+
+    def __init__(self, spec, rho_max: float = 1.0):
+        """spec: one of NAMES or an expression in rho; rho_max: the case's saturation density (persons/m^2
+        for "weidmann"). Raises LawError for a law outside [0, 1], not finite or increasing somewhere."""
+        self.spec = spec
+        if spec == "constant":
+            self._f = lambda r: np.ones_like(r)
+        elif spec == "linear":
+            self._f = lambda r: 1.0 - r
+        elif spec == "weidmann":
+            c = WEIDMANN_GAMMA / rho_max
+            self._f = lambda r: np.where(r > 0, -np.expm1(-c * (1.0 / np.maximum(r, 1e-300) - 1.0)), 1.0)
+        else:
+            try:
+                expression = Expression(spec, variables=("rho",))
+            except ExpressionError as err:
+                raise LawError(str(err)) from None
+            self._f = lambda r: expression.of(rho=r)
+        r = np.linspace(0.0, 1.0, SAMPLES)
+        with np.errstate(all="ignore"):
+            f = self._f(r)
+        bad = np.flatnonzero(~np.isfinite(f) | (f < 0) | (f > 1))
+        if bad.size:
+            raise LawError(f"f(rho) = {f[bad[0]]:.6g} at rho = {r[bad[0]]:.6g}: not a finite number in [0, 1]")
+        up = np.flatnonzero(np.diff(f) > 1e-12)
+        if up.size:
+            k = up[0]
+            raise LawError(f"f increases with the density (f({r[k]:.4g}) = {f[k]:.6g} < f({r[k + 1]:.4g}) = "
+                           f"{f[k + 1]:.6g}): people do not walk faster in a denser crowd")
+        self.f1 = float(f[-1])
+        g = r * f
+        self.r_star = float(r[np.argmax(g)])
+        rising = np.diff(g[: np.argmax(g) + 1])
+        falling = np.diff(g[np.argmax(g):])
+        self.unimodal = bool(np.all(rising >= -1e-14) and np.all(falling <= 1e-14))
+        if self.unimodal:
+            self.r_star = self._refine_maximum(self.r_star, 1.0 / (SAMPLES - 1))
+        self.lipschitz = LIPSCHITZ_MARGIN * float(np.max(np.abs(np.diff(g))) * (SAMPLES - 1))
+
+    @property
+    def constant(self) -> bool:
+        """f = 1: the desired speed does not depend on the density (the linear upwind transport)."""
+        return self.spec == "constant"
+
+    @property
+    def saturates(self) -> bool:
+        """f(1) > 0: people push at saturation, so the density can exceed 1 and needs the projection."""
+        return self.f1 > 0
+
+    def __call__(self, rho: np.ndarray) -> np.ndarray:
+        """f(rho), rho clipped to [0, 1]."""
+        return self._f(np.clip(rho, 0.0, 1.0))
+
+    def flux(self, rho: np.ndarray) -> np.ndarray:
+        """g(rho) = rho f(rho) on [0, 1]."""
+        r = np.clip(rho, 0.0, 1.0)
+        return r * self._f(r)
+
+    def demand(self, rho: np.ndarray) -> np.ndarray:
+        """D(r) = g(min(r, r*)): the most the sender can give (unimodal g)."""
+        return self.flux(np.minimum(rho, self.r_star))
+
+    def supply(self, rho: np.ndarray) -> np.ndarray:
+        """S(r) = g(max(r, r*)): the most the receiver can take (unimodal g)."""
+        return self.flux(np.maximum(rho, self.r_star))
+
+    def _refine_maximum(self, r0, width):
+        """argmax of the unimodal g near the sample r0 (golden section on [r0 - w, r0 + w]): to about 1e-9,
+        where g is flat to round-off."""
+        a, b = max(r0 - width, 0.0), min(r0 + width, 1.0)
+        ratio = (np.sqrt(5.0) - 1.0) / 2.0
+        for _ in range(80):
+            c, d = b - ratio * (b - a), a + ratio * (b - a)
+            if self.flux(np.array(c)) >= self.flux(np.array(d)):
+                b = d
+            else:
+                a = c
+        return 0.5 * (a + b)

@@ -1,0 +1,103 @@
+"""Prediction with a density-dependent speed U = f(rho) U0: the LWR flux across each facet (Maury,
+Roudneff-Chupin, Santambrogio, Venel 2011, section on extensions; docs/extensions.md).
+
+The facet rates q_e = |e| (U0.n)^+ of the upwind scheme (upwind.py, flux splitting for a cellwise
+U0) carry, from the sender K to the receiver L (the empty outside across an exit),
+
+    Godunov (g = r f(r) unimodal):  F_e = q_e min(D(rho_K), S(rho_L))   (Lebacque 1996 demand/supply)
+    otherwise:                      F_e = q_e rho_K f(rho_L)             (upwind density, downstream speed)
+
+where rho is the total density (the crowd people see) and a population i sends its share
+rho_i,K / rho_K of the sender's flux. Both fluxes use the density downstream, as the paper asks.
+For a unimodal g the demand/supply flux is Godunov's exact Riemann flux (the least diffusive monotone
+flux); for a g with several humps it is not consistent (min(D(r), S(r)) > g(r) in a valley), while
+rho_K f(rho_L) is monotone and consistent for every non-increasing f.
+
+Bounds, with out_K, in_K the rates q_e leaving and entering K and L_f the law's constant (lipschitz):
+each flux is at most q_e rho_i,K (D(r) <= r, f <= 1), so rho_i >= 0 when dt out_K <= |K|; the
+flux into K is at most q_e S(rho_K) <= q_e L_f (1 - rho_K) when f(1) = 0, so rho <= 1 when
+dt in_K L_f <= |K| (for several populations in_K takes the largest rate of the populations on each
+facet): with f(1) = 0 the density never exceeds 1 and the projection is never needed.
+"""
+
+import numpy as np
+
+from .upwind import UpwindTransport
+
+
+class LWRTransport(UpwindTransport):
+    """The LWR fluxes of one population with speed law ``law`` (femcrowd.macro.speed_law.SpeedLaw)."""
+
+    def __init__(self, domain, exits, normal_velocity, law):
+        super().__init__(domain, exits, normal_velocity)
+        self.law = law
+        self.godunov = law.unimodal
+        # for the downstream-speed flux the bound needs the Lipschitz constant of f, not of g:
+        # f(r) <= L (1 - r) with f(1) = 0; sampled like the law's own constant
+        r = np.linspace(0.0, 1.0, 4097)
+        self.steepness = law.lipschitz if self.godunov else 1.01 * float(np.max(np.abs(np.diff(law(r)))) * 4096)
+        k0, k1 = domain.f2t
+        n = domain.ncells
+        inner = domain.interior
+        self.outside = n                        # index of the empty outside (behind an exit)
+        f0, f1 = np.flatnonzero(self.out0 > 0), np.flatnonzero(self.out1 > 0)
+        # senders and receivers of the flows k0 -> k1 (f0) and k1 -> k0 (f1), the outside for exits
+        self.sender = np.concatenate([k0[f0], k1[f1]])
+        self.receiver = np.concatenate([np.where(inner[f0], k1[f0], n), k0[f1]])
+        self.rate = np.concatenate([self.out0[f0], self.out1[f1]])
+        self.flow_facet = np.concatenate([f0, f1])
+        self.flow_sign = np.concatenate([np.ones(len(f0)), -np.ones(len(f1))])   # along f2t[0] -> f2t[1]
+        leaving = self.receiver == n
+        self.exit_flows = np.flatnonzero(leaving)
+        self.exit_of_flow = exits.group[f0[leaving[: len(f0)]]]
+        self.n_exits = len(exits.names)
+        self.out_rate = np.bincount(self.sender, self.rate, n)
+        self.max_dt = joint_max_dt(domain, [self])
+
+    def flows(self, rho, total=None):
+        """The mass rate of this population along each flow (sender -> receiver); ``total``: the density of
+        all populations, which the speed law sees (default: rho, one population)."""
+        total = rho if total is None else total
+        seen = np.append(total, 0.0)   # the outside is empty
+        if self.godunov:
+            flux = np.minimum(self.law.demand(seen[self.sender]), self.law.supply(seen[self.receiver]))
+        else:
+            flux = seen[self.sender] * self.law(seen[self.receiver])
+        if total is not rho:   # this population's share of the sender's flux
+            with np.errstate(invalid="ignore", divide="ignore"):
+                flux *= np.where(total[self.sender] > 0, rho[self.sender] / total[self.sender], 0.0)
+        return flux * self.rate
+
+    def step(self, rho, dt, total=None):
+        """rho~ of this population and the mass that left through each exit during dt."""
+        if dt > self.max_dt * (1 + 1e-12):
+            raise ValueError(f"dt = {dt:.6g} exceeds the CFL limit {self.max_dt:.6g} of the LWR transport")
+        flux = self.flows(rho, total)
+        n = len(rho)
+        net = np.bincount(self.receiver, flux, n + 1)[:n] - np.bincount(self.sender, flux, n)
+        rho_t = rho + (dt / self.domain.area) * net
+        np.maximum(rho_t, 0.0, out=rho_t)   # round-off of order 1e-17 at the CFL limit
+        evacuated = dt * np.bincount(self.exit_of_flow, flux[self.exit_flows], self.n_exits)
+        return rho_t, evacuated
+
+    def facet_flux(self, rho, dt, total=None):
+        """The mass each facet carries f2t[0] -> f2t[1] in the step of rho by dt (measurement lines)."""
+        flux = self.flows(rho, total)
+        return dt * np.bincount(self.flow_facet, self.flow_sign * flux, len(self.out0))
+
+
+def joint_max_dt(domain, schemes) -> float:
+    """The largest step that keeps every population >= 0 and, when f(1) = 0 for all, their sum <= 1: the
+    minimum over the cells of |K| / max(max_i max(1, L_i) out_i,K, sum over K's facets of max_i L_i q_i,e)."""
+    n = domain.ncells
+    out = np.max([max(1.0, s.steepness) * s.out_rate for s in schemes], axis=0)
+    # largest entering rate per (receiver, facet) pair over the populations
+    entering = np.zeros(n)
+    if schemes:
+        k0, k1 = domain.f2t
+        inner = domain.interior
+        into_k1 = np.max([s.steepness * np.where(inner, s.out0, 0.0) for s in schemes], axis=0)
+        into_k0 = np.max([s.steepness * s.out1 for s in schemes], axis=0)
+        entering = np.bincount(k1[inner], into_k1[inner], n) + np.bincount(k0, into_k0, n)
+    with np.errstate(divide="ignore"):
+        return float(np.min(domain.area / np.maximum(out, entering)))
