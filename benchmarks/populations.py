@@ -28,31 +28,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-
-CACHE = Path(__file__).resolve().parent / ".cache"
-HALL = """size = {size:.6g}
-[outer]
-points = [[0, 0], [20, 0], [20, 15], [0, 15]]
-[[exits]]
-name = "exit"
-from = [20, 6.5]
-to = [20, 8.5]
-"""
-AREA = 300.0
-DENSITY = "where((x - 20)**2 + (y - 7.5)**2 < 49, 1.0, 0.85 * (x > 3))"
-
-
-def mesh_file(target):
-    """The gmsh mesh of the hall with about `target` triangles (made on first use)."""
-    from femcrowd.mesh.floorplan import build_mesh
-
-    path = CACHE / f"hall_{int(target)}.msh"
-    if not path.exists():
-        CACHE.mkdir(exist_ok=True)
-        plan = path.with_suffix(".toml")
-        plan.write_text(HALL.format(size=math.sqrt(2.31 * AREA / target)))
-        build_mesh(plan, path)
-    return path
+from scale import DENSITY, mesh_file  # the hall of benchmarks/scale.py (this script's folder is on sys.path)
 
 
 def case_text(mesh, k):

@@ -14,7 +14,8 @@ is taken between the two largest sizes.
 
     python benchmarks/scale.py                      # sizes 1e4 1e5 1e6, 30 steps each
     python benchmarks/scale.py --sizes 1e4 1e5 --steps 20
-    python benchmarks/scale.py --long               # >= 500-step 10^6 evacuation, end to end (femcrowd.run)
+    python benchmarks/scale.py --long               # the 10^6 hall until empty, end to end (femcrowd.run)
+    python benchmarks/scale.py --long --long-size 1e5 --transport upwind --cfl 0.5
 """
 
 import argparse
@@ -164,36 +165,30 @@ def one_size(target, steps):
     return out
 
 
-def max_dt(target):
-    """The CFL-1 step of the upwind transport for the scene (its own process: not in the long run's memory)."""
-    from femcrowd.case import Expression
-    from femcrowd.macro import MacroSolver, MacroState
-    from femcrowd.macro.velocity import ExitsVelocity
-    from femcrowd.mesh import Boundary, load_domain
-
-    domain = load_domain(mesh_file(target), ["exit"])
-    solver = MacroSolver(domain, Boundary(domain), [ExitsVelocity(domain, Expression("1"))])
-    state = MacroState.initial(np.zeros((1, domain.ncells)), 1)
-    return {"max_dt": solver.transports(state, solver.boundary.at(0.0))[0].max_dt}
-
-
-def long_run(target, steps, cfl_one_dt):
-    """A >= `steps`-step evacuation at CFL 0.5 through the user path (femcrowd.run), timed end to end."""
+def long_run(target, transport, cfl):
+    """The complete evacuation of the hall through the user path (femcrowd.run), timed end to end: it stops
+    once less than time.empty_fraction of the crowd is inside."""
     from femcrowd import load_case, run
+    from femcrowd.driver.reading import read_history
 
     path = mesh_file(target)
-    case_dir = CACHE / f"long_{int(target)}"
+    case_dir = CACHE / f"long_{int(target)}_{transport}_{cfl:g}"
     case_dir.mkdir(parents=True, exist_ok=True)
-    end = (steps + 1) * 0.5 * cfl_one_dt  # the default cfl = 0.5; output cuts only add steps
     (case_dir / "case.toml").write_text(
         f'title = "benchmark hall, {int(target)} triangles"\n[mesh]\nfile = "{path}"\n'
         f'[boundary]\nexits = ["exit"]\n[initial]\ndensity = "{DENSITY}"\n'
-        f"[time]\nend = {end!r}\n[output]\nevery = {end / 4!r}\n")
+        f'[scheme]\ntransport = "{transport}"\n[time]\nend = 1000.0\ncfl = {cfl!r}\n[output]\nevery = 20.0\n')
     tic = time.perf_counter()
     summary = run(load_case(case_dir), out=case_dir / "output", force=True).summary
     wall = time.perf_counter() - tic
+    step_seconds = read_history(case_dir / "output" / "history.csv")["step_seconds"][1:]
+    tenth = max(1, len(step_seconds) // 10)
     return {"triangles": summary["mesh"]["triangles"], "steps": summary["steps"], "wall": wall,
-            "simulated_time": summary["final_time"], "peak_gb": peak_memory_gb(), "timing": summary["timing"],
+            "evacuation_time": summary["evacuation_time"], "simulated_time": summary["final_time"],
+            "peak_gb": peak_memory_gb(), "timing": summary["timing"], "transport": transport, "cfl": cfl,
+            "step_seconds": {"median": float(np.median(step_seconds)),
+                             "first tenth": float(np.mean(step_seconds[:tenth])),
+                             "last tenth": float(np.mean(step_seconds[-tenth:])), "max": float(step_seconds.max())},
             "mass_error": summary["max_mass_error"], "max_density": summary["max_density_ever"],
             "min_density": summary["min_density_ever"], "min_pressure": summary["min_pressure_ever"],
             "active_set_iterations": summary["active_set_iterations"],
@@ -255,26 +250,25 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=float, nargs="+", default=[1e4, 1e5, 1e6], help="target triangle counts")
     parser.add_argument("--steps", type=int, default=30, help="steps per size (medians over them)")
-    parser.add_argument("--long", action="store_true", help="time a >= 500-step 10^6 evacuation end to end")
-    parser.add_argument("--long-size", type=float, default=1e6)
-    parser.add_argument("--long-steps", type=int, default=500)
+    parser.add_argument("--long", action="store_true", help="time the complete evacuation, end to end")
+    parser.add_argument("--long-size", type=float, default=1e6, help="triangles of the --long run")
+    parser.add_argument("--transport", default="implicit", help="scheme.transport of the --long run")
+    parser.add_argument("--cfl", type=float, default=20.0, help="time.cfl of the --long run")
     parser.add_argument("--one", type=float, help=argparse.SUPPRESS)
-    parser.add_argument("--long-child", type=float, help=argparse.SUPPRESS)
-    parser.add_argument("--max-dt", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--long-child", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.one:
         print(json.dumps(one_size(args.one, args.steps)))
         return
-    if args.max_dt:
-        print(json.dumps(max_dt(args.long_size)))
-        return
+    long_args = ["--long-size", str(args.long_size), "--transport", args.transport, "--cfl", str(args.cfl)]
     if args.long_child:
-        print(json.dumps(long_run(args.long_size, args.long_steps, args.long_child)))
+        print(json.dumps(long_run(args.long_size, args.transport, args.cfl)))
         return
     if args.long:
-        dt = child(["--max-dt", "--long-size", str(args.long_size)])["max_dt"]
-        r = child(["--long-child", repr(dt), "--long-size", str(args.long_size), "--long-steps", str(args.long_steps)])
-        print(f"{r['steps']} steps at {r['triangles']} triangles: {r['wall']:.0f} s end to end "
+        mesh_file(args.long_size)   # meshing is not part of the timing
+        r = child(["--long-child", *long_args])
+        print(f"{r['triangles']} triangles, {r['transport']} transport at cfl {r['cfl']:g}: empty at "
+              f"t = {r['evacuation_time']:.1f} s after {r['steps']} steps, {r['wall']:.0f} s end to end "
               f"({r['wall'] / 60:.1f} min), peak memory {r['peak_gb']:.2f} GB")
         print(json.dumps(r, indent=1))
         return

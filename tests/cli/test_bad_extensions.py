@@ -6,7 +6,7 @@ from click.testing import CliRunner
 
 from femcrowd.cli import main
 
-from .test_bad_input import BASE, GOOD_MESH, assert_refused, edit, previous_run, snapshot, write_case
+from .test_bad_input import BASE, GOOD_MESH, assert_run_refused, edit, write_case
 
 TWO = edit("[initial]\ndensity = 0.5\n", '[populations.a]\ndensity = "0.5 * (x < 0.5)"\n'
            '[populations.b]\ndensity = "0.5 * (x >= 0.5)"\n')
@@ -54,15 +54,7 @@ BAD = {
 @pytest.mark.parametrize("name", list(BAD))
 def test_bad_extension_input_is_refused_cleanly(tmp_path, name):
     toml, overrides, key, value, words = BAD[name]
-    case = write_case(tmp_path, toml, GOOD_MESH)
-    out = previous_run(tmp_path)
-    before = snapshot(out)
-    args = ["run", str(case), "--out", str(out), "-q"] + [a for o in overrides for a in ("--set", o)]
-    result = CliRunner().invoke(main, args)
-    assert result.exit_code == 2, result.output
-    assert result.stdout == ""
-    assert_refused(result.stderr, case / "case.toml", key, value, words)
-    assert snapshot(out) == before
+    assert_run_refused(tmp_path, toml, GOOD_MESH, overrides, key, value, words)
 
 
 def test_population_overrides_are_accepted(tmp_path):

@@ -225,9 +225,9 @@ def test_the_base_case_runs(tmp_path):
     assert (tmp_path / "out" / "summary.json").is_file()
 
 
-@pytest.mark.parametrize("name", list(BAD))
-def test_bad_input_is_refused_cleanly(tmp_path, name):
-    toml, mesh, overrides, key, value, words = BAD[name]
+def assert_run_refused(tmp_path, toml, mesh, overrides, key, value, words):
+    """`femcrowd run` of this case with these --set overrides: exit code 2, nothing on stdout, the one line
+    naming file, key and value on stderr, and a previous run's output directory left as it was."""
     case = write_case(tmp_path, toml, mesh)
     out = previous_run(tmp_path)
     before = snapshot(out)
@@ -237,6 +237,11 @@ def test_bad_input_is_refused_cleanly(tmp_path, name):
     assert result.stdout == ""
     assert_refused(result.stderr, case / "case.toml", key, value, words)
     assert snapshot(out) == before
+
+
+@pytest.mark.parametrize("name", list(BAD))
+def test_bad_input_is_refused_cleanly(tmp_path, name):
+    assert_run_refused(tmp_path, *BAD[name])
 
 
 def test_output_dir_that_is_a_file(tmp_path):
