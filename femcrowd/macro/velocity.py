@@ -68,12 +68,31 @@ class ExitsVelocity:
             d = self.distance[heading] = exit_distance(self.domain.points, self.domain.triangles,
                                                        self._edges(exits, heading))
             grad = _p1_gradient(self.domain, d)
+            if len(heading) > 1:
+                self._on_ridges(exits, heading, grad)
             norm = np.hypot(grad[:, 0], grad[:, 1])
             ok = np.isfinite(norm) & (norm > 0)
             cells = np.zeros((self.domain.ncells, 2))
             cells[ok] = -(self.speed[ok] / norm[ok])[:, None] * grad[ok]
             self._cells[heading] = cells
         return self._cells[heading]
+
+    def _on_ridges(self, exits, heading, grad):
+        """On the ridges of d between two exits (cells whose nodes are nearest to different exits), the
+        gradient of the distance to the cell's own nearest exit, in place.
+
+        There the P1 gradient of d = min_e d_e averages two directions: along the ridge, into a wall where
+        two doors share it, and across it back and forth; a thin layer of crowd would stay there for good.
+        People on a watershed pick one of the exits: the one nearest to the cell (mean of its nodes)."""
+        t = self.domain.triangles
+        each = np.stack([exit_distance(self.domain.points, t, self._edges(exits, (name,))) for name in heading])
+        nearest = np.argmin(each, axis=0)[t]   # the nearest exit of each node of each cell
+        ridge = np.flatnonzero((nearest != nearest[:, :1]).any(axis=1))
+        with np.errstate(invalid="ignore"):
+            own = np.argmin(each[:, t[ridge]].mean(axis=2), axis=0)
+        for e in np.unique(own):
+            cells = ridge[own == e]
+            grad[cells] = _p1_gradient(self.domain, each[e], cells)
 
     def _heading(self, exits) -> tuple:
         """The open exits this population heads for."""
@@ -105,9 +124,10 @@ class ExitsVelocity:
         return np.stack([np.einsum("ij,ij->i", cells[k], n) for k in (k0, np.where(k1 >= 0, k1, k0))])
 
 
-def _p1_gradient(domain, d):
-    """Gradient per triangle of the P1 interpolant of nodal values d (inf where any node is inf)."""
-    p, t = domain.points, domain.triangles
+def _p1_gradient(domain, d, cells=slice(None)):
+    """Gradient per triangle (of these cells) of the P1 interpolant of nodal values d (inf where any node
+    is inf)."""
+    p, t = domain.points, domain.triangles[cells]
     e1, e2 = p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]
     with np.errstate(invalid="ignore"):
         d1, d2 = d[t[:, 1]] - d[t[:, 0]], d[t[:, 2]] - d[t[:, 0]]
