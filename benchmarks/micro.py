@@ -1,30 +1,36 @@
-"""Benchmark of the microscopic (disc) model: room evacuation through one door.
+"""Benchmark of the disc model: a room evacuation through one door, cost per jammed step (issue 15).
 
-    python benchmarks/micro.py                     # N = 2000 (20 x 20 room, 2 m door), 300 steps
-    python benchmarks/micro.py --steps 0           # ... until everybody is out
-    python benchmarks/micro.py --n 20000 --steps 40   # large crowd (63 x 63 room, 4 doors)
-    python benchmarks/micro.py --method uzawa --steps 200
-    python benchmarks/micro.py --compare-solvers --n 500   # QP solvers on one jammed projection
-    python benchmarks/micro.py --steps 100 --breakdown     # where the time of a jammed step goes
+    python benchmarks/micro.py                       # N = 2000 (20 x 20 room, 2 m door), 300 steps
+    python benchmarks/micro.py --n 500 --steps 100
+    python benchmarks/micro.py --scale               # N = 500, 2000, 8000, 20000, each in its own process
+    python benchmarks/micro.py --against /tmp/base15 # also the femcrowd of another checkout, alternately
 
-Prints median / mean ms per step and the evacuation time. Reference: cromosim
-(Uzawa, same room) needs 58 ms/step for N = 2000.
+A step is jammed when it has at least as many active contacts as discs. Prints the median and p90 ms
+per jammed step, factorisations per step, the largest overlap (in radii) and certified relative
+objective gap over all steps, and, on 10 sampled jammed steps, the objective gap and the velocity
+difference against a tight solve of the same projection (gap_tol = 1e-12). One BLAS thread unless
+--threads says otherwise, like femcrowd run. Reference: cromosim needs about 58 ms/step (cvxopt) and
+100 ms/step (Uzawa) for N = 2000 in this room, with overlaps of 0.24-0.49 m.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import math
+import os
+import resource
+import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(os.environ.get("FEMCROWD_SOURCE", Path(__file__).resolve().parents[1]))))
 
 from femcrowd.micro import MicroSimulation  # noqa: E402
 from femcrowd.micro.contacts import point_segment_distance  # noqa: E402
-from femcrowd.micro.linalg import default_backend  # noqa: E402
+from femcrowd.micro.projection import project  # noqa: E402
 
 
 def room(L: float, doors: list[tuple[str, float, float]]):
@@ -104,169 +110,85 @@ def scenario(n):
     return L, walls, exits
 
 
+def measure(n, steps, radius=0.2, tau=0.05, seed=0, samples=10) -> dict:
+    """One evacuation of n discs for `steps` steps: per-step costs and accuracy, and tight re-solves of
+    `samples` jammed projections."""
+    L, walls, exits = scenario(n)
+    q = hex_crowd(L, n, radius, seed=seed)
+    sim = MicroSimulation(q, radius, walls, exits, towards_exits(exits, radius), tau)
+    jammed, facts, overlap, gap, change, checks = [], [], 0.0, 0.0, 0.0, []
+    every = max(1, steps // samples)
+    for k in range(steps):
+        sample = k % every == 0 and len(checks) < samples and sim.cl is not None
+        if sample:   # the projection this step will solve, to solve it again tightly
+            C, lam0, U = sim.constraints(), sim.lam.copy(), sim.desired_velocity()
+            d = np.maximum(C.D, -sim._recover) / tau
+        info = sim.step()
+        facts.append(info.factorizations)
+        overlap = max(overlap, getattr(info, "overlap_r", info.max_overlap / radius))
+        gap, change = max(gap, getattr(info, "gap", 0.0)), max(change, getattr(info, "change", 0.0))
+        if info.contacts >= info.count + info.evacuated_now:
+            jammed.append(info.step_seconds)
+            if sample and hasattr(info, "gap"):
+                fast, tight = project(C, U, d, lam0=lam0), project(C, U, d, lam0=lam0, gap_tol=1e-12)
+                cost = [0.5 * float(np.sum((r.u - U) ** 2)) for r in (fast, tight)]
+                checks.append(((cost[0] - cost[1]) / cost[1], float(np.abs(fast.u - tight.u).max())))
+    ms = 1e3 * np.array(jammed) if jammed else np.full(1, np.nan)
+    return {"n": n, "steps": steps, "jammed": len(jammed), "median_ms": float(np.median(ms)),
+            "p90_ms": float(np.percentile(ms, 90)), "factorizations": float(np.mean(facts)),
+            "max_overlap_r": overlap, "max_gap": gap, "max_change": change,
+            "tight_gap": max((c[0] for c in checks), default=float("nan")),
+            "tight_velocity": max((c[1] for c in checks), default=float("nan")),
+            "peak_gb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20}
+
+
+def child(n, steps, threads, source=None) -> dict:
+    """measure() in a new process (its own peak memory), on this checkout's femcrowd or another's."""
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": str(threads), "OMP_NUM_THREADS": str(threads)}
+    if source is not None:
+        env["FEMCROWD_SOURCE"] = str(source)
+    out = subprocess.run([sys.executable, __file__, "--child", "--n", str(n), "--steps", str(steps)],
+                         check=True, capture_output=True, text=True, env=env)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def line(r, label=""):
+    return (f"{label}N = {r['n']}: {r['jammed']} of {r['steps']} steps jammed, median {r['median_ms']:.1f} ms "
+            f"(p90 {r['p90_ms']:.1f}) per jammed step, {r['factorizations']:.1f} factorisations per step; "
+            f"max overlap {r['max_overlap_r']:.1e} r, max gap {r['max_gap']:.1e}, change {r['max_change']:.1e} m/s; "
+            f"against a tight solve: gap {r['tight_gap']:.1e}, velocity {r['tight_velocity']:.1e} m/s; "
+            f"peak {r['peak_gb']:.2f} GB")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--n", type=int, default=2000)
-    ap.add_argument("--radius", type=float, default=0.2)
-    ap.add_argument("--tau", type=float, default=0.05)
-    ap.add_argument("--steps", type=int, default=300, help="stop after this many steps (0: until empty)")
-    ap.add_argument("--method", default="exact", choices=["exact", "uzawa"])
-    ap.add_argument("--backend", default=None, help="cholmod | splu")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--compare-solvers", action="store_true")
-    ap.add_argument("--profile", action="store_true")
-    ap.add_argument("--breakdown", action="store_true",
-                    help="active-set churn per step, and the cost of the step's parts at the last state")
-    ap.add_argument("--every", type=int, default=100, help="progress line every this many steps")
+    ap.add_argument("--steps", type=int, default=300)
+    ap.add_argument("--scale", action="store_true", help="N = 500, 2000, 8000, 20000 (200 steps from 8000 on)")
+    ap.add_argument("--against", type=Path, help="another femcrowd checkout, run alternately with this one")
+    ap.add_argument("--rounds", type=int, default=2, help="alternating rounds with --against")
+    ap.add_argument("--threads", type=int, default=1, help="BLAS threads (femcrowd run's default: 1)")
+    ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
-    if args.compare_solvers:
-        return compare_solvers(args)
-
-    L, walls, exits = scenario(args.n)
-    q = hex_crowd(L, args.n, args.radius, seed=args.seed)
-    U = towards_exits(exits, args.radius)
-    sim = MicroSimulation(q, args.radius, walls, exits, U, args.tau, method=args.method,
-                          backend=args.backend, max_iter=None)
-    print(f"N={args.n} room {L:.1f} m, {len(exits)} door(s) of 2 m, r={args.radius}, tau={args.tau}, "
-          f"method={args.method}, backend={args.backend or default_backend()}")
-    times, info = [], None
-    worst_overlap = worst_kkt = 0.0
-    not_conv = 0
-    t0 = time.perf_counter()
-    prof = None
-    if args.profile:
-        import cProfile
-
-        prof = cProfile.Profile()
-        prof.enable()
-    facts, fallbacks, churn, prev_active = [], 0, [], None
-    for info in sim.run(max_steps=args.steps or None):
-        times.append(info.step_seconds)
-        facts.append(info.factorizations)
-        fallbacks += info.fallback
-        if args.breakdown:
-            active = active_keys(sim)
-            if prev_active is not None and len(prev_active):
-                churn.append(len(np.setxor1d(active, prev_active)) / len(prev_active))
-            prev_active = active
-        worst_overlap = max(worst_overlap, info.max_overlap)
-        worst_kkt = max(worst_kkt, info.kkt)
-        not_conv += not info.converged
-        if info.step % args.every == 0:
-            print(f"  t={info.time:7.2f} s  left={info.count:6d}  contacts={info.contacts:6d}  "
-                  f"it={info.solver_iterations:3d} fact={info.factorizations:3d} kkt={info.kkt:.0e} "
-                  f"step={1e3 * info.step_seconds:6.2f} ms", flush=True)
-    wall = time.perf_counter() - t0
-    if prof is not None:
-        import pstats
-
-        prof.disable()
-        pstats.Stats(prof).sort_stats("cumulative").print_stats(25)
-    times = np.array(times) * 1e3
-    print(f"steps={len(times)}  simulated {sim.t:.2f} s, left {sim.count}, evacuated {sim.evacuated}")
-    print(f"median {np.median(times):.2f} ms/step   mean {times.mean():.2f}   p90 "
-          f"{np.percentile(times, 90):.2f}   max {times.max():.1f}   wall {wall:.1f} s")
-    print(f"max overlap ever {worst_overlap:.2e} m ({worst_overlap / args.radius:.1e} r), "
-          f"max KKT residual {worst_kkt:.1e}, steps not converged to tol: {not_conv}")
-    print(f"factorisations per step: median {np.median(facts):.0f}, max {max(facts)}; "
-          f"steps that needed the interior point: {fallbacks}")
-    if args.breakdown:
-        breakdown(sim, churn)
-
-
-def active_keys(sim):
-    """Active contacts (lambda > 0) of the last step, keyed by the discs' original ids."""
-    cl, big = sim.cl, 1 << 31
-    keys = np.concatenate([sim.ids[cl.pi] * big + sim.ids[cl.pj], -1 - (sim.ids[cl.wi] * big + cl.ws)])
-    return np.sort(keys[sim.lam > 0])
-
-
-def breakdown(sim, churn):
-    """Median cost of the parts of one step at the final state (20 repeats each)."""
-    from femcrowd.micro.contacts import CandidateList
-    from femcrowd.micro.projection import _NewtonMatrix, project
-
-    def med(f, k=20):
-        ts = []
-        for _ in range(k):
-            t = time.perf_counter()
-            f()
-            ts.append(time.perf_counter() - t)
-        return 1e3 * float(np.median(ts))
-
-    C = sim.constraints()
-    U = sim.desired_velocity()
-    d = np.maximum(C.D, -sim._recover) / sim.tau
-    act = sim.lam > 0
-    newton = _NewtonMatrix(C, act, None)
-    x = np.ones((C.N, 2))
-    if churn:
-        print(f"active set churn per step (|A_n xor A_n-1| / |A_n-1|): median {100 * np.median(churn):.0f} %, "
-              f"p90 {100 * np.percentile(churn, 90):.0f} %")
-    print(f"at the last state: {C.N} discs, {C.m} candidate rows, {act.sum()} active")
-    print(f"  candidate list (KD-tree) rebuild  {med(lambda: CandidateList(sim.q, sim.r, sim.walls, sim._base_skin)):7.2f} ms")
-    print(f"  constraint rows (gaps, normals)   {med(lambda: sim.cl.constraints(sim.q, sim.r, sim.walls)):7.2f} ms")
-    print(f"  Newton matrix symbolic analysis   {med(lambda: _NewtonMatrix(C, act, None), 5):7.2f} ms")
-    print(f"  one numeric factorisation         {med(lambda: newton.factor(1e4 * act)):7.2f} ms "
-          f"(I + rho B_A^T B_A, {2 * len(newton.discs)} unknowns)")
-    print(f"  one solve with it                 {med(lambda: newton.fact.solve(x[newton.discs].ravel())):7.2f} ms")
-    res = project(C, U, d, lam0=sim.lam)
-    print(f"  the projection of the next step   {med(lambda: project(C, U, d, lam0=sim.lam), 3):7.2f} ms "
-          f"({res.factorizations} factorisations, KKT {res.kkt:.1e})")
-
-
-def compare_solvers(args):
-    """Time exact QP solvers on the projection of a jammed crowd (cold start)."""
-    import scipy.sparse as sp
-
-    from femcrowd.micro.projection import kkt_residual, project
-
-    L, walls, exits = scenario(args.n)
-    q = hex_crowd(L, args.n, args.radius, seed=args.seed)
-    U = towards_exits(exits, args.radius)
-    sim = MicroSimulation(q, args.radius, walls, exits, U, args.tau)
-    for info in sim.run(max_steps=int(round(3.0 / args.tau))):  # 3 s: the crowd has jammed
-        pass
-    C = sim.constraints()
-    Ud = sim.desired_velocity()
-    d = np.maximum(C.D, 0) / args.tau
-    print(f"jammed projection: N={C.N} discs, m={C.m} candidate constraints")
-    rows = []
-    for name, kw in [("femcrowd exact (cold)", {}), ("femcrowd exact (warm)", {"lam0": sim.lam}),
-                     ("femcrowd exact splu", {"backend": "splu"})]:
-        t = time.perf_counter()
-        res = project(C, Ud, d, **kw)
-        rows.append((name, time.perf_counter() - t, res.kkt, res.u))
-    t = time.perf_counter()
-    res = project(C, Ud, d, method="uzawa", max_iter=5000, tol=1e-8)
-    rows.append((f"uzawa ({res.iterations} it)", time.perf_counter() - t, res.kkt, res.u))
-    ref = rows[0][3]
-    try:
-        import qpsolvers
-    except ImportError:
-        qpsolvers = None
-        print("(qpsolvers not installed: pip install qpsolvers clarabel osqp piqp proxsuite)")
-    if qpsolvers is not None:
-        B = C.to_csr()
-        P = sp.identity(2 * C.N, format="csc")
-        qv = -Ud.ravel()
-        for solver in ["clarabel", "piqp", "proxqp", "osqp"]:
-            if solver not in qpsolvers.available_solvers:
-                continue
-            opts = dict(eps_abs=1e-10, eps_rel=1e-10) if solver in ("osqp", "proxqp") else {}
-            if solver == "osqp":
-                opts.update(max_iter=20000, polishing=True)
-            t = time.perf_counter()
-            sol = qpsolvers.solve_problem(qpsolvers.Problem(P, qv, B.tocsc(), d), solver=solver, **opts)
-            dt = time.perf_counter() - t
-            if sol.x is None:
-                rows.append((solver, dt, np.inf, ref * np.nan))
-                continue
-            u = sol.x.reshape(-1, 2)
-            lam = np.maximum(sol.z, 0) if sol.z is not None else np.zeros(C.m)
-            rows.append((solver, dt, kkt_residual(C, Ud, d, u, lam), u))
-    for name, dt, kkt, u in rows:
-        print(f"  {name:28s} {1e3 * dt:9.1f} ms   KKT {kkt:8.1e}   |u - u_exact| {np.abs(u - ref).max():8.1e}")
+    if args.child:
+        print(json.dumps(measure(args.n, args.steps)))
+        return
+    if args.scale:
+        results = [child(n, args.steps if n <= 2000 else 200, args.threads) for n in (500, 2000, 8000, 20000)]
+        for r in results:
+            print(line(r))
+        a, b = results[1], results[-1]
+        print(f"fitted exponent of the jammed-step cost from N = {a['n']} to {b['n']}: "
+              f"{math.log(b['median_ms'] / a['median_ms']) / math.log(b['n'] / a['n']):.2f} "
+              f"(N = 20000 / N = 2000: {b['median_ms'] / a['median_ms']:.1f}x)")
+        return
+    for k in range(args.rounds if args.against else 1):
+        now = child(args.n, args.steps, args.threads)
+        print(line(now, f"round {k + 1}, this checkout:   "), flush=True)
+        if args.against:
+            before = child(args.n, args.steps, args.threads, args.against)
+            print(line(before, f"round {k + 1}, {args.against}: "), flush=True)
+            print(f"round {k + 1}: ratio of the median jammed step {now['median_ms'] / before['median_ms']:.2f}")
 
 
 if __name__ == "__main__":

@@ -30,7 +30,7 @@ def run(case_dir, overrides, out, force, quiet, threads, resume):
     if case["model"]["type"] == "micro":
         click.echo(f"{summary['status']}: {summary['steps']} steps to t = {summary['final_time']:.4g} s "
                    f"in {summary['timing']['wall']:.1f} s; {summary['initial_count']} discs, "
-                   f"{summary['evacuated']} evacuated; max overlap {summary['max_overlap_over_radius']:.1e} r")
+                   f"{summary['evacuated']} evacuated; max overlap {summary['max_overlap_r']:.1e} r")
     else:
         click.echo(f"{summary['status']}: {summary['steps']} steps to t = {summary['final_time']:.4g} s "
                    f"in {summary['timing']['wall']:.1f} s; mass error {summary['mass_error']:.1e}; "

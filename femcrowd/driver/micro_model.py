@@ -30,6 +30,9 @@ MICRO_COLUMNS = [
     Column("evacuated", (("evacuated", "last"),)),
     Column("contacts"),
     Column("max_overlap", (("max_overlap", "max"),)),
+    Column("overlap_r", (("max_overlap_r", "max"),)),
+    Column("gap", (("max_gap", "max"),)),
+    Column("change", (("max_change", "max"),)),
     Column("solver_iterations", (("solver_iterations.mean", "mean_over_steps"), ("solver_iterations.max", "max"))),
     Column("step_seconds"),
     Column("kkt", (("max_kkt", "max"),)),
@@ -142,8 +145,8 @@ class MicroModel:
             extra.update(inflow=self.sources.inflow, queued=self.sources.queued)
         if info is None:
             return {"time": sim.t, "dt": 0.0, "count": sim.count, "evacuated": 0, "contacts": 0,
-                    "max_overlap": 0.0, "solver_iterations": 0, "step_seconds": 0.0, "kkt": 0.0, "outside": outside,
-                    **extra}
+                    "max_overlap": 0.0, "overlap_r": 0.0, "gap": 0.0, "change": 0.0, "solver_iterations": 0,
+                    "step_seconds": 0.0, "kkt": 0.0, "outside": outside, **extra}
         return {**info.row(), "time": sim.t, "outside": outside, **extra}
 
     def _population_row(self) -> dict:
@@ -198,5 +201,4 @@ class MicroModel:
 
     def summary(self, recorded: dict) -> dict:
         """What the summary adds to the recorder's entries."""
-        return {"steps": self.sim.nstep, "tau": self.tau, "evacuation_time": self.evacuation_time,
-                "max_overlap_over_radius": recorded["max_overlap"] / self.r_min}
+        return {"steps": self.sim.nstep, "tau": self.tau, "evacuation_time": self.evacuation_time}

@@ -66,6 +66,8 @@ class ProjectionResult:
     converged: bool
     method: str
     fallback: bool = False  # the interior point was needed (exact method)
+    gap: float = 0.0     # certified relative objective gap (P(u) - D(lam)) / P(u); 0: exact to round-off
+    change: float = 0.0  # max per-disc velocity change of one more (affine) interior-point step; 0: exact
 
     @property
     def active(self) -> int:
@@ -94,20 +96,23 @@ def project(
     rho: float = 1e4,
     nu: float | None = None,
     max_fact: int = 10,
+    gap_tol: float = 1e-7,
 ) -> ProjectionResult:
     """Project U (N, 2) on {v : B v <= d} (seed 000 eq. 15-16).
 
     tol is relative to max(1, max|U|); lam0 warm-starts the multipliers.
-    method "exact": warm-started semismooth Newton; if it needs more than
-    max_fact factorisations, an interior point method locates the active
-    set and the semismooth Newton polishes (see :func:`_exact`).
+    method "exact": warm-started semismooth Newton, exact to round-off; in a
+    jam (the warm start has at least as many active contacts as discs), or
+    when the Newton iteration needs more than max_fact factorisations, an
+    interior point method stopped at strict feasibility and a certified
+    relative objective gap <= gap_tol (see :func:`_exact`).
     """
     U = np.asarray(U, dtype=float).reshape(C.N, 2)
     d = np.asarray(d, dtype=float).reshape(C.m)
     lam = np.zeros(C.m) if lam0 is None else np.maximum(np.asarray(lam0, float).reshape(C.m), 0.0)
     atol = tol * max(1.0, float(np.abs(U).max()) if C.N else 1.0)
     if method == "exact":
-        solve = lambda Cw, dw, lw: _exact(Cw, U, dw, lw, atol, max_iter, rho, max_fact)  # noqa: E731
+        solve = lambda Cw, dw, lw: _exact(Cw, U, dw, lw, atol, max_iter, rho, max_fact, gap_tol)  # noqa: E731
     elif method == "uzawa":
         solve = lambda Cw, dw, lw: _uzawa(Cw, U, dw, lw, atol, max_iter or 100_000, nu)  # noqa: E731
     else:
@@ -136,7 +141,8 @@ def project(
             break
         W = W | viol
     kkt = kkt_residual(C, U, d, res.u, lam_full)
-    return ProjectionResult(res.u, lam_full, total_it, total_fact, kkt, kkt <= atol, res.method, fallback)
+    return ProjectionResult(res.u, lam_full, total_it, total_fact, kkt, kkt <= atol, res.method, fallback,
+                            res.gap, res.change)
 
 
 # --------------------------------------------------------------------------
@@ -341,76 +347,103 @@ def _ssn_alm(C: Constraints, U, d, lam, atol, max_iter, rho, newton, max_fact=No
     return ProjectionResult(v, lam, it, nfact, float(kkt), converged, "exact")
 
 
-def _exact(C: Constraints, U, d, lam, atol, max_iter, rho, max_fact):
-    """Warm-started semismooth Newton; interior point + Newton polish as fallback.
-
-    One Newton-matrix pattern (all rows of C) serves the three stages.
+def _exact(C: Constraints, U, d, lam, atol, max_iter, rho, max_fact, gap_tol):
+    """Semismooth Newton (exact to round-off) unless the crowd is jammed; in a jam, or when the Newton
+    iteration needs more than max_fact factorisations, the interior point (:func:`_ipm`), polished to
+    round-off by the Newton iteration when its last affine step nearly fits (small, non-degenerate
+    problems). One Newton-matrix pattern (all rows of C) serves every stage.
     """
     newton = _NewtonMatrix(C, np.ones(C.m, bool))
-    res = _ssn_alm(C, U, d, lam, atol, max_iter or 200, rho, newton, max_fact=max_fact)
-    if res.converged or C.m == 0:
-        return res
-    v, lam_ipm, it_ipm = _ipm(C, U, d, lam, atol, 80, newton)
-    s = d - C.matvec(v)
-    pol = _ssn_alm(C, U, d, np.where(lam_ipm > s, lam_ipm, 0.0), atol, max_iter or 60, rho, newton)
-    best = pol
-    if not pol.converged:
-        kkt_ipm = kkt_residual(C, U, d, v, lam_ipm)
-        if kkt_ipm < pol.kkt:
-            best = ProjectionResult(v, lam_ipm, 0, 0, kkt_ipm, False, "exact")
-    return ProjectionResult(best.u, best.lam, res.iterations + it_ipm + pol.iterations,
-                            res.factorizations + it_ipm + pol.factorizations, best.kkt, best.converged,
-                            "exact", fallback=True)
+    jammed = np.count_nonzero(lam > 0) >= len(newton.discs) > 0   # a hyperstatic contact network
+    nit = nfact = 0
+    if not jammed:
+        res = _ssn_alm(C, U, d, lam, atol, max_iter or 200, rho, newton, max_fact=max_fact)
+        if res.converged or C.m == 0:
+            return res
+        nit, nfact = res.iterations, res.factorizations
+    ipm = _ipm(C, U, d, lam, atol, 80, newton, gap_tol)
+    nit, nfact = nit + ipm.iterations, nfact + ipm.iterations + 1
+    if ipm.affine_step >= 0.9:
+        s = d - C.matvec(ipm.u)
+        pol = _ssn_alm(C, U, d, np.where(ipm.lam > s, ipm.lam, 0.0), atol, max_iter or 60, rho, newton,
+                       max_fact=max_fact)
+        nit, nfact = nit + pol.iterations, nfact + pol.factorizations
+        if pol.converged:
+            return ProjectionResult(pol.u, pol.lam, nit, nfact, pol.kkt, True, "exact", fallback=True)
+    s = d - C.matvec(ipm.u)
+    lam_ipm = np.where(ipm.lam > s, ipm.lam, 0.0)   # the contacts the interior point holds active
+    kkt = kkt_residual(C, U, d, ipm.u, lam_ipm)
+    return ProjectionResult(ipm.u, lam_ipm, nit, nfact, kkt, kkt <= atol, "exact", fallback=True,
+                            gap=ipm.gap, change=ipm.change)
 
 
-def _ipm(C: Constraints, U, d, lam0, atol, max_iter, newton, mu_stop=None, w_stop=1e14):
-    """Primal-dual interior point (Mehrotra predictor-corrector) for the QP.
+@dataclass
+class _IPMResult:
+    u: np.ndarray
+    lam: np.ndarray
+    iterations: int
+    gap: float          # certified relative objective gap at u, lam
+    change: float       # max |a dv| per disc of the affine step from u
+    affine_step: float  # its length a in (0, 1]
 
-    Robust whatever the active-set changes (used when the semismooth Newton
-    needs too many factorisations, e.g. a crowd jamming at once). The Newton
-    matrix I + B^T diag(lam / s) B keeps one sparsity pattern: one numeric
-    factorisation per iteration. Returns (v, lam, iterations).
+
+def _ipm(C: Constraints, U, d, lam0, atol, max_iter, newton, gap_tol):
+    """Primal-dual interior point (Mehrotra 1992 predictor-corrector) for the QP, on the slack form
+    B v + s = d, s >= 0, lam >= 0, lam s = mu.
+
+    The Newton matrix I + B^T diag(lam / s) B keeps one sparsity pattern: one numeric factorisation per
+    iteration, whatever the contacts (degenerate, hyperstatic jams included). It stops when v is strictly
+    feasible (max(B v - d) <= 1e-12 max|U|) and the relative gap (P(v) - D(lam)) / P(v) <= gap_tol,
+    where P(v) = 1/2 |v - U|^2 and D(lam) = lam.(B U - d) - 1/2 |B^T lam|^2 <= min P is the Lagrangian dual
+    bound: the gap it reports bounds the true one.
     """
     m = C.m
     scale = max(1.0, float(np.abs(U).max()))
-    if mu_stop is None:
-        mu_stop = 1e-2 * atol * scale
+    feasible_tol = 1e-12 * scale
+    BU_d = C.matvec(U) - d
     v = U.copy()
-    s = np.maximum(d - C.matvec(v), 1e-2 * scale)
+    s = np.maximum(-BU_d, 1e-2 * scale)
     lam = np.maximum(lam0, 1e-2 * scale)
-    it = 0
-    for it in range(1, max_iter + 1):
+
+    def direction(rd, rp, rc):
+        rhs = -rd - C.rmatvec((-rc + lam * rp) / s)
+        dv = _psolve(newton.fact, newton.discs, rhs)
+        ds = -rp - C.matvec(dv)
+        return dv, ds, (-rc - lam * ds) / s
+
+    def max_step(x, dx):
+        neg = dx < 0
+        return min(1.0, float((-x[neg] / dx[neg]).min())) if neg.any() else 1.0
+
+    it, gap, last_change = 0, np.inf, np.inf
+    while True:
         rd = v - U + C.rmatvec(lam)
         rp = C.matvec(v) + s - d
         mu = float(lam @ s) / m
-        w = lam / s
-        # stop when the active set is clear (the semismooth Newton polishes) or
-        # before the weights make the Newton matrix numerically singular
-        if max(np.abs(rd).max(), np.abs(rp).max(), mu) <= mu_stop or w.max() > w_stop:
-            break
-        newton.factor(w)
-
-        def direction(rc):
-            rhs = -rd - C.rmatvec((-rc + lam * rp) / s)
-            dv = _psolve(newton.fact, newton.discs, rhs)
-            ds = -rp - C.matvec(dv)
-            dl = (-rc - lam * ds) / s
-            return dv, ds, dl
-
-        def max_step(x, dx):
-            neg = dx < 0
-            return min(1.0, float((-x[neg] / dx[neg]).min())) if neg.any() else 1.0
-
-        dv, ds, dl = direction(lam * s)
+        primal = 0.5 * float(np.sum((v - U) ** 2))
+        dual = float(lam @ BU_d) - 0.5 * float(np.sum(C.rmatvec(lam) ** 2))
+        # at round-off relative to 1/2 |U|^2 the gap is 0 (v = U: nothing to project)
+        floor = 1e-14 * 0.5 * float(np.sum(U * U))
+        gap = 0.0 if primal - dual <= floor else (primal - dual) / max(primal, floor)
+        feasible = float((C.matvec(v) - d).max()) <= feasible_tol
+        try:
+            newton.factor(lam / s)
+        except ArithmeticError:   # weights lam / s so large that round-off breaks the factorisation:
+            return _IPMResult(v, lam, it, gap, last_change, 1.0)   # the active set is clear, polish it
+        dv, ds, dl = direction(rd, rp, lam * s)          # affine (predictor) direction
         a = min(max_step(s, ds), max_step(lam, dl))
+        if (feasible and gap <= gap_tol) or it >= max_iter:
+            change = a * float(np.sqrt((dv * dv).sum(1)).max()) if len(dv) else 0.0
+            return _IPMResult(v, lam, it, gap, change, a)
         mu_aff = float((s + a * ds) @ (lam + a * dl)) / m
         sigma = (mu_aff / mu) ** 3
-        dv, ds, dl = direction(lam * s + ds * dl - sigma * mu)
-        a = 0.995 * min(max_step(s, ds), max_step(lam, dl))  # one step: QP stationarity
+        dv, ds, dl = direction(rd, rp, lam * s + ds * dl - sigma * mu)
+        a = 0.995 * min(max_step(s, ds), max_step(lam, dl))
         v = v + a * dv
         s = s + a * ds
         lam = lam + a * dl
-    return v, lam, it
+        it += 1
+        last_change = a * float(np.sqrt((dv * dv).sum(1)).max())
 
 
 # --------------------------------------------------------------------------

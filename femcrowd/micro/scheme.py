@@ -50,6 +50,9 @@ class StepInfo:
     evacuated_now: int
     contacts: int  # active constraints (lambda > 0)
     max_overlap: float  # max(-gap) over pairs and walls after the step, 0 if none
+    overlap_r: float    # the same divided by the smaller radius of each pair (of the disc, at a wall)
+    gap: float          # certified relative objective gap of the projection (0: exact to round-off)
+    change: float       # velocity change of one more interior-point step (0: exact)
     solver_iterations: int
     factorizations: int
     kkt: float
@@ -73,6 +76,9 @@ class StepInfo:
             "evacuated": self.evacuated,
             "contacts": self.contacts,
             "max_overlap": self.max_overlap,
+            "overlap_r": self.overlap_r,
+            "gap": self.gap,
+            "change": self.change,
             "solver_iterations": self.solver_iterations,
             "kkt": self.kkt,
             "step_seconds": self.step_seconds,
@@ -289,11 +295,13 @@ class MicroSimulation:
             self.u, pressure = self.u[keep], pressure[keep]
             self.evacuated += ngone
         # gaps at the new configuration: diagnostics and next step's constraints
-        max_overlap = 0.0
+        max_overlap = overlap_r = 0.0
         if self.count and self.cl is not None:
             C1 = self.constraints()
             if C1.m:
                 max_overlap = max(0.0, float(-C1.D.min()))
+                radius = np.concatenate([np.minimum(self.r[C1.pi], self.r[C1.pj]), self.r[C1.wi]])
+                overlap_r = max(0.0, float((-C1.D / radius).max()))
         self.t += tau
         self.nstep += 1
         return StepInfo(
@@ -305,6 +313,9 @@ class MicroSimulation:
             evacuated_now=ngone,
             contacts=contacts,
             max_overlap=max_overlap,
+            overlap_r=overlap_r,
+            gap=0.0 if res is None else res.gap,
+            change=0.0 if res is None else res.change,
             solver_iterations=0 if res is None else res.iterations,
             factorizations=0 if res is None else res.factorizations,
             kkt=0.0 if res is None else res.kkt,
