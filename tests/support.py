@@ -44,3 +44,10 @@ def read_history(path) -> dict:
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
     return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+
+
+def assert_time_accounted(timing: dict) -> None:
+    """Every second of a run is in one of its timed phases: all but 5 % of the wall time, or 50 ms (a short
+    run on a busy machine loses that much to scheduling between the phases)."""
+    accounted = sum(timing.values()) - timing["wall"]
+    assert timing["wall"] - accounted <= max(0.05 * timing["wall"], 0.05), timing

@@ -1,42 +1,41 @@
-"""Projection of the desired velocities on the feasible set (seed 000 eqs. 15-17).
+"""Projection of the desired velocities on the feasible set (Maury 2014, eqs. 15-17).
 
 Solves the sparse QP
 
     min_v 1/2 |v - U|^2   s.t.   B v <= d          (d = D / tau)
 
-whose KKT system is seed 000 eq. (16): u + B^T lambda = U, B u <= d,
+whose KKT system is Maury 2014, eq. (16): u + B^T lambda = U, B u <= d,
 lambda >= 0, (B u - d) . lambda = 0.
 
-``method="exact"`` (default), three stages, all exact up to round-off:
+``method="exact"`` (default):
 
-1. Semismooth Newton on the augmented Lagrangian (proximal method of
+1. Not jammed (fewer active contacts than discs in the warm start):
+   semismooth Newton on the augmented Lagrangian (proximal method of
    multipliers), warm-started with the previous step's multipliers. For a
    multiplier estimate lambda, ``phi(v) = 1/2 |v - U|^2 + 1/(2 rho)
    |[lambda + rho (B v - d)]_+|^2`` is strongly convex and piecewise
-   quadratic; its Newton matrix ``I + rho B_A^T B_A`` (A = {lambda + rho
-   (B v - d) > 0}) is symmetric positive definite *whatever the rank of B_A*
-   (jams with more contacts than degrees of freedom, seed 000 Fig. 3, make
-   B B^T singular). Exact piecewise line search; multiplier update when phi
-   is minimised; residuals and multipliers are updated in increment form so
-   the KKT residual reaches round-off although rho is large; when an
-   inconsistent (hyperstatic) active set makes lambda drift along a
-   self-stress (B^T dlambda = 0), the drift is extrapolated to the first
-   lambda_i = 0. Sparse Cholesky (CHOLMOD); the pattern is that of all the
-   working rows, analysed once per projection and shared by the three
-   stages; only discs touched by these rows enter the matrix.
-2. If stage 1 needs more than ``max_fact`` factorisations (many contacts
-   changing at once: a crowd compacting), a primal-dual interior point
-   method (Mehrotra) finds the active set in ~20-35 factorisations of
-   ``I + B^T diag(lambda / s) B`` (one pattern).
-3. Stage 1 again from the interior-point active set (polish).
+   quadratic; its Newton matrix ``I + rho B_A^T B_A`` is symmetric positive
+   definite whatever the rank of B_A. Exact piecewise line search;
+   residuals and multipliers in increment form, so the KKT residual reaches
+   round-off although rho is large; a multiplier drift along a self-stress
+   (B^T dlambda = 0) is extrapolated to the first lambda_i = 0.
+2. Jammed (hyperstatic and degenerate contacts, Maury 2014, Fig. 3), or
+   when stage 1 needs more than ``max_fact`` factorisations: a primal-dual
+   interior point, Mehrotra's predictor-corrector (1992) with Gondzio's
+   centrality correctors (1996), on ``I + B^T diag(lambda / s) B``; it stops
+   at strict feasibility and a certified relative objective gap (see
+   :func:`_ipm`), or is polished to round-off by stage 1 when its last
+   affine step nearly fits.
 
-Rows that the desired motion cannot reach are left out of the solve and
-checked afterwards (added back if violated): the result is the projection
-on the full candidate set.
+Both factorise matrices I + B^T diag(w) B of one sparsity pattern, whose
+symbolic analysis a :class:`NewtonPattern` keeps between projections (sparse
+Cholesky, CHOLMOD). Rows that the desired motion cannot reach are left out
+of the solve and checked afterwards (added back if violated): the result is
+the projection on the full candidate set.
 
-``method="uzawa"``: seed 000 eq. (17), projected gradient on the dual with
-a fixed step nu < 2 / ||B||^2, kept for comparison (slow in jams: its rate
-degrades with cond(B B^T)).
+``method="uzawa"``: Maury 2014, eq. (17), projected gradient on the dual
+with a fixed step nu < 2 / ||B||^2, kept for comparison (slow in jams: its
+rate degrades with cond(B B^T)).
 """
 
 from __future__ import annotations
@@ -97,6 +96,7 @@ def project(
     nu: float | None = None,
     max_fact: int = 10,
     gap_tol: float = 1e-7,
+    pattern: NewtonPattern | None = None,
 ) -> ProjectionResult:
     """Project U (N, 2) on {v : B v <= d} (seed 000 eq. 15-16).
 
@@ -112,7 +112,7 @@ def project(
     lam = np.zeros(C.m) if lam0 is None else np.maximum(np.asarray(lam0, float).reshape(C.m), 0.0)
     atol = tol * max(1.0, float(np.abs(U).max()) if C.N else 1.0)
     if method == "exact":
-        solve = lambda Cw, dw, lw: _exact(Cw, U, dw, lw, atol, max_iter, rho, max_fact, gap_tol)  # noqa: E731
+        solve = lambda Cw, dw, lw: _exact(Cw, U, dw, lw, atol, max_iter, rho, max_fact, gap_tol, pattern)  # noqa: E731
     elif method == "uzawa":
         solve = lambda Cw, dw, lw: _uzawa(Cw, U, dw, lw, atol, max_iter or 100_000, nu)  # noqa: E731
     else:
@@ -150,59 +150,121 @@ def project(
 # --------------------------------------------------------------------------
 
 
-class _NewtonMatrix:
-    """I + B^T diag(w) B for row weights w >= 0 supported in a row superset S.
+class NewtonPattern:
+    """The kept symbolic analysis of the Newton matrices I + B^T diag(w) B (issue 15).
 
-    The pattern is that of S (symbolic factorisation once); rows of S with
-    w = 0 keep their place in the pattern, so a new active set (w = rho on A,
-    semismooth Newton) or new barrier weights (w = lambda / s, interior point)
-    cost one numeric factorisation only.
+    A pattern is a set of discs and of disc pairs (global indices); its fill-reducing order and
+    supernodes are computed once and serve every projection whose rows fit in it: from step to step
+    the contact network changes little, so the analysis is redone only when a working row falls
+    outside (a new pair, a new disc) or when the discs are renumbered (:meth:`forget`).
     """
 
-    def __init__(self, C: Constraints, S):
-        rs = np.flatnonzero(S)
-        p = rs[rs < C.mp]
-        wr = rs[rs >= C.mp] - C.mp
-        pi, pj, cp = C.pi[p], C.pj[p], C.cp[p]
-        wi, cw = C.wi[wr], C.cw[wr]
-        discs = np.unique(np.concatenate([pi, pj, wi]))
+    def __init__(self):
+        self.forget()
+
+    def forget(self) -> None:
+        """Drop the analysis (the discs renumbered otherwise than by :meth:`keep`: a restart)."""
+        self.N, self.keys, self.fact, self.analyses = -1, None, None, 0
+
+    def keep(self, kept) -> None:
+        """The discs of the boolean mask `kept` stay, renumbered in order (the others left: exits);
+        the slots of those that left stay in the pattern as identity blocks, so no new analysis."""
+        kept = np.asarray(kept, bool)
+        if self.keys is None or len(kept) != self.N:
+            self.forget()
+            return
+        new = np.cumsum(kept) - 1
+        a, b = self.keys // self.N, self.keys % self.N
+        both = kept[a] & kept[b]
+        self.N = int(kept.sum())
+        self.keys = new[a[both]] * self.N + new[b[both]]
+        self.off = self.off[both]
+        self.discs = np.where(kept[np.maximum(self.discs, 0)] & (self.discs >= 0),
+                              new[np.maximum(self.discs, 0)], -1)
+        self.where = self.where[kept]
+
+    def matrix(self, C: Constraints) -> _NewtonMatrix:
+        """The Newton matrix of the rows of C, on the kept pattern if they fit in it."""
+        lo, hi = np.minimum(C.pi, C.pj), np.maximum(C.pi, C.pj)
+        keys = lo.astype(np.int64) * C.N + hi
+        discs = np.unique(np.concatenate([C.pi, C.pj, C.wi]))
+        if not (C.N == self.N and np.all(self.where[discs] >= 0) and _contains(self.keys, keys)):
+            self._analyse(C.N, np.unique(keys), discs)
+        return _NewtonMatrix(C, self, keys, len(discs))
+
+    def _analyse(self, N, keys, discs):
+        """Entries of the lower triangle: per disc its 2x2 diagonal block (xx, yx, yy), per pair the
+        off-diagonal block of (higher, lower) disc; all distinct, sorted column-major for CHOLMOD."""
         n = len(discs)
-        idx = np.full(C.N, -1, dtype=np.intp)
-        idx[discs] = np.arange(n)
-        a, b, w = idx[pi], idx[pj], idx[wi]
-        nodes = np.concatenate([a, b, w])
-        src_d = np.concatenate([p, p, C.mp + wr])
-        c = np.concatenate([cp, cp, cw])
-        hi, lo = np.maximum(a, b), np.minimum(a, b)
+        self.N, self.keys, self.discs, self.analyses = N, keys, discs, self.analyses + 1
+        self.where = np.full(N, -1, dtype=np.intp)
+        self.where[discs] = np.arange(n)
+        a, b = self.where[keys // N], self.where[keys % N]          # a < b
         k = np.arange(n)
-        rows = np.concatenate(
-            [2 * nodes, 2 * nodes + 1, 2 * nodes + 1, 2 * hi, 2 * hi, 2 * hi + 1, 2 * hi + 1, 2 * k, 2 * k + 1])
-        cols = np.concatenate(
-            [2 * nodes, 2 * nodes, 2 * nodes + 1, 2 * lo, 2 * lo + 1, 2 * lo, 2 * lo + 1, 2 * k, 2 * k + 1])
-        self.base = np.concatenate(
-            [c[:, 0] ** 2, c[:, 0] * c[:, 1], c[:, 1] ** 2,
-             -cp[:, 0] ** 2, -cp[:, 0] * cp[:, 1], -cp[:, 0] * cp[:, 1], -cp[:, 1] ** 2,
-             np.ones(2 * n)])
-        self.src = np.concatenate([src_d, src_d, src_d, p, p, p, p, np.full(2 * n, -1)])
-        self.discs = discs
-        # entries in compressed-column order, duplicates summed (rows of several contacts meet)
-        entry, self.entry_of = np.unique(cols.astype(np.int64) * (2 * n) + rows, return_inverse=True)
-        self.entries = len(entry)
-        self.fact = Cholesky(entry % (2 * n), entry // (2 * n), 2 * n, supernodal=2, print=0) if n else None
+        rows = np.concatenate([2 * k, 2 * k + 1, 2 * k + 1, 2 * b, 2 * b + 1, 2 * b, 2 * b + 1])
+        cols = np.concatenate([2 * k, 2 * k, 2 * k + 1, 2 * a, 2 * a, 2 * a + 1, 2 * a + 1])
+        order = np.argsort(cols.astype(np.int64) * (2 * n) + rows, kind="stable")
+        rank = np.empty_like(order)
+        rank[order] = np.arange(len(order))
+        self.diag = rank[: 3 * n].reshape(3, n).T                  # (n, 3) positions
+        self.off = rank[3 * n:].reshape(4, -1).T                   # (pairs, 4) positions
+        self.entries = len(order)
+        self.fact = Cholesky(rows[order], cols[order], 2 * n, supernodal=2, print=0) if n else None
+
+
+def _contains(sorted_keys, keys) -> bool:
+    if sorted_keys is None:
+        return False
+    if len(keys) == 0:
+        return True
+    pos = np.minimum(np.searchsorted(sorted_keys, keys), max(len(sorted_keys) - 1, 0))
+    return len(sorted_keys) > 0 and bool(np.all(sorted_keys[pos] == keys))
+
+
+class _NewtonMatrix:
+    """I + B^T diag(w) B for the rows of C, on a pattern that holds them.
+
+    Row i (pair a-b with normal c, or disc a against a wall with normal c) adds w_i c c^T to the
+    diagonal blocks of its discs and -w_i c c^T to the off-diagonal block of the pair: the values
+    of a factorisation are one weighted bincount over these contributions.
+    """
+
+    def __init__(self, C: Constraints, pattern: NewtonPattern, keys, touched: int):
+        self.touched = touched   # discs that the rows of C touch
+        at = pattern.where
+        pair = np.searchsorted(pattern.keys, keys)
+        cp, cw = C.cp, C.cw
+        block = lambda c: np.stack([c[:, 0] ** 2, c[:, 0] * c[:, 1], c[:, 1] ** 2], 1)  # noqa: E731
+        bp, bw = block(cp), block(cw)
+        off = np.stack([bp[:, 0], bp[:, 1], bp[:, 1], bp[:, 2]], 1)
+        self.position = np.concatenate([pattern.diag[at[C.pi]].ravel(), pattern.diag[at[C.pj]].ravel(),
+                                        pattern.diag[at[C.wi]].ravel(), pattern.off[pair].ravel()])
+        self.base = np.concatenate([bp.ravel(), bp.ravel(), bw.ravel(), -off.ravel()])
+        rows = np.arange(C.m)
+        self.row = np.concatenate([np.repeat(rows[: C.mp], 3), np.repeat(rows[: C.mp], 3),
+                                   np.repeat(rows[C.mp:], 3), np.repeat(rows[: C.mp], 4)])
+        self.identity = np.zeros(pattern.entries)
+        self.identity[pattern.diag[:, [0, 2]].ravel()] = 1.0
+        self.fact, self.slots = pattern.fact, len(pattern.discs)
+        # the pattern's slots whose disc is still here (one that left holds -1), and those discs
+        self.slot = np.flatnonzero(pattern.discs >= 0)
+        self.disc = pattern.discs[self.slot]
 
     def factor(self, w):
         """Numeric factorisation of I + B^T diag(w) B (w: one weight per row)."""
         if self.fact is not None:
-            wts = np.where(self.src >= 0, np.asarray(w, float)[np.maximum(self.src, 0)], 1.0)
-            self.fact.factorise(np.bincount(self.entry_of, self.base * wts, self.entries))
+            w = np.asarray(w, float)
+            self.fact.factorise(self.identity + np.bincount(self.position, self.base * w[self.row],
+                                                            len(self.identity)))
 
 
-def _psolve(fact, discs, x):
+def _psolve(newton, x):
     """Apply the factorised Newton matrix's inverse (identity off its discs)."""
-    if fact is None or len(discs) == 0:
-        return x.copy()
     y = x.copy()
-    y[discs] = np.array(fact.solve(x[discs].ravel())).reshape(-1, 2)
+    if newton.fact is not None:
+        xs = np.zeros((newton.slots, 2))
+        xs[newton.slot] = x[newton.disc]
+        y[newton.disc] = np.array(newton.fact.solve(xs.ravel())).reshape(-1, 2)[newton.slot]
     return y
 
 
@@ -245,8 +307,8 @@ def _line_search(v, U, delta, z, w, rho):
 def _ssn_alm(C: Constraints, U, d, lam, atol, max_iter, rho, newton, max_fact=None):
     """Semismooth Newton / multiplier iterations in incremental (refinement) form.
 
-    ``newton``: the :class:`_NewtonMatrix` of all rows of C (shared with the
-    interior point, so its symbolic analysis is done once per projection).
+    ``newton``: the :class:`_NewtonMatrix` of the rows of C (shared with the
+    interior point and the polish).
     The residuals r1 = U - v - B^T lam and r2 = d - B v are evaluated without
     the factor rho, and the multipliers are updated by increments, so the
     result reaches round-off accuracy although rho is large (the large rho
@@ -265,7 +327,7 @@ def _ssn_alm(C: Constraints, U, d, lam, atol, max_iter, rho, newton, max_fact=No
     else:
         v = U.copy()
         forced = None
-    fact = fact_act = discs = None
+    fact_act = None
     nfact = it = 0
     converged = False
     kkt = np.inf
@@ -318,14 +380,11 @@ def _ssn_alm(C: Constraints, U, d, lam, atol, max_iter, rho, newton, max_fact=No
             # phi(.; lam) is minimised to round-off: multiplier update
             lam = update(lam, z, act)
             continue
-        delta = None
-        if delta is None:
-            if fact_act is None or forced is not None or not np.array_equal(hact, fact_act):
-                newton.factor(rho * hact)
-                fact, discs = newton.fact, newton.discs
-                nfact += 1
-                fact_act = hact
-            delta = _psolve(fact, discs, rhs)
+        if fact_act is None or forced is not None or not np.array_equal(hact, fact_act):
+            newton.factor(rho * hact)
+            nfact += 1
+            fact_act = hact
+        delta = _psolve(newton, rhs)
         it += 1
         if forced is None and np.abs(delta).max() <= 1e-2 * atol:
             # the Newton step is at round-off: phi(.; lam) is minimised, update lam
@@ -347,14 +406,14 @@ def _ssn_alm(C: Constraints, U, d, lam, atol, max_iter, rho, newton, max_fact=No
     return ProjectionResult(v, lam, it, nfact, float(kkt), converged, "exact")
 
 
-def _exact(C: Constraints, U, d, lam, atol, max_iter, rho, max_fact, gap_tol):
+def _exact(C: Constraints, U, d, lam, atol, max_iter, rho, max_fact, gap_tol, pattern):
     """Semismooth Newton (exact to round-off) unless the crowd is jammed; in a jam, or when the Newton
     iteration needs more than max_fact factorisations, the interior point (:func:`_ipm`), polished to
     round-off by the Newton iteration when its last affine step nearly fits (small, non-degenerate
-    problems). One Newton-matrix pattern (all rows of C) serves every stage.
+    problems). One Newton-matrix pattern, kept by `pattern` between projections, serves every stage.
     """
-    newton = _NewtonMatrix(C, np.ones(C.m, bool))
-    jammed = np.count_nonzero(lam > 0) >= len(newton.discs) > 0   # a hyperstatic contact network
+    newton = (pattern or NewtonPattern()).matrix(C)
+    jammed = np.count_nonzero(lam > 0) >= newton.touched > 0   # a hyperstatic contact network
     nit = nfact = 0
     if not jammed:
         res = _ssn_alm(C, U, d, lam, atol, max_iter or 200, rho, newton, max_fact=max_fact)
@@ -400,45 +459,59 @@ def _ipm(C: Constraints, U, d, lam0, atol, max_iter, newton, gap_tol):
     m = C.m
     scale = max(1.0, float(np.abs(U).max()))
     feasible_tol = 1e-12 * scale
+    floor = 1e-14 * 0.5 * float(np.sum(U * U))   # gap at round-off relative to 1/2 |U|^2 (v = U): 0
     BU_d = C.matvec(U) - d
     v = U.copy()
-    s = np.maximum(-BU_d, 1e-2 * scale)
-    lam = np.maximum(lam0, 1e-2 * scale)
+    # start well inside (s, lam >= 0.3 max|U|: nearer the boundary costs more iterations, measured)
+    s = np.maximum(-BU_d, 0.3 * scale)
+    lam = np.maximum(lam0, 0.3 * scale)
 
     def direction(rd, rp, rc):
-        rhs = -rd - C.rmatvec((-rc + lam * rp) / s)
-        dv = _psolve(newton.fact, newton.discs, rhs)
+        """Newton direction for v - U + B^T lam = rd, B v + s - d = rp, lam s = rc (residuals to cancel)."""
+        dv = _psolve(newton, -rd - C.rmatvec((lam * rp - rc) / s))
         ds = -rp - C.matvec(dv)
         return dv, ds, (-rc - lam * ds) / s
 
-    def max_step(x, dx):
-        neg = dx < 0
-        return min(1.0, float((-x[neg] / dx[neg]).min())) if neg.any() else 1.0
+    def step_length(ds, dl):
+        """The largest a <= 1 with s + a ds >= 0 and lam + a dl >= 0."""
+        x, dx = np.concatenate([s, lam]), np.concatenate([ds, dl])
+        ratio = np.divide(-x, dx, out=np.full_like(x, np.inf), where=dx < 0)
+        return min(1.0, float(ratio.min()))
 
     it, gap, last_change = 0, np.inf, np.inf
     while True:
-        rd = v - U + C.rmatvec(lam)
-        rp = C.matvec(v) + s - d
+        Bv, BTlam = C.matvec(v), C.rmatvec(lam)
+        rd = v - U + BTlam
+        rp = Bv + s - d
         mu = float(lam @ s) / m
         primal = 0.5 * float(np.sum((v - U) ** 2))
-        dual = float(lam @ BU_d) - 0.5 * float(np.sum(C.rmatvec(lam) ** 2))
-        # at round-off relative to 1/2 |U|^2 the gap is 0 (v = U: nothing to project)
-        floor = 1e-14 * 0.5 * float(np.sum(U * U))
+        dual = float(lam @ BU_d) - 0.5 * float(np.sum(BTlam ** 2))
         gap = 0.0 if primal - dual <= floor else (primal - dual) / max(primal, floor)
-        feasible = float((C.matvec(v) - d).max()) <= feasible_tol
+        feasible = float((Bv - d).max()) <= feasible_tol
         try:
             newton.factor(lam / s)
         except ArithmeticError:   # weights lam / s so large that round-off breaks the factorisation:
             return _IPMResult(v, lam, it, gap, last_change, 1.0)   # the active set is clear, polish it
         dv, ds, dl = direction(rd, rp, lam * s)          # affine (predictor) direction
-        a = min(max_step(s, ds), max_step(lam, dl))
+        a = step_length(ds, dl)
         if (feasible and gap <= gap_tol) or it >= max_iter:
             change = a * float(np.sqrt((dv * dv).sum(1)).max()) if len(dv) else 0.0
             return _IPMResult(v, lam, it, gap, change, a)
-        mu_aff = float((s + a * ds) @ (lam + a * dl)) / m
-        sigma = (mu_aff / mu) ** 3
-        dv, ds, dl = direction(rd, rp, lam * s + ds * dl - sigma * mu)
-        a = 0.995 * min(max_step(s, ds), max_step(lam, dl))
+        sigma_mu = (float((s + a * ds) @ (lam + a * dl)) / m / mu) ** 3 * mu
+        rc = lam * s + ds * dl - sigma_mu                 # Mehrotra's corrector
+        dv, ds, dl = direction(rd, rp, rc)
+        a = step_length(ds, dl)
+        for _ in range(2):                               # Gondzio's centrality correctors (1996)
+            trial = min(1.0, 2.0 * a)  # aim at a longer step: push the products lam s into [0.1, 10] sigma mu
+            prod = (s + trial * ds) * (lam + trial * dl)
+            t = np.clip(prod, 0.1 * sigma_mu, 10.0 * sigma_mu) - prod
+            t = np.maximum(t, -10.0 * sigma_mu)
+            cv, cs, cl = direction(rd, rp, rc - t)
+            ca = step_length(cs, cl)
+            if ca < a + 0.1 * (trial - a):
+                break
+            rc, dv, ds, dl, a = rc - t, cv, cs, cl, ca
+        a *= 0.995
         v = v + a * dv
         s = s + a * ds
         lam = lam + a * dl

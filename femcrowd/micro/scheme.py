@@ -28,7 +28,7 @@ from typing import Callable, Iterator
 import numpy as np
 
 from .contacts import CandidateList, Constraints, WallSet, as_segments, merge_collinear
-from .projection import project
+from .projection import NewtonPattern, project
 
 __all__ = ["StepInfo", "MicroSimulation", "exit_crossings"]
 
@@ -166,6 +166,7 @@ class MicroSimulation:
         self.lam = np.zeros(0)
         self.u = np.zeros_like(q)
         self._C: Constraints | None = None  # constraints at the current q (cached)
+        self._pattern = NewtonPattern()      # the projection's kept symbolic analysis
         # overlaps (round-off, or in the input) are removed by at most this much per
         # step: the QP stays feasible and no overlap can grow
         self._recover = 1e-3 * float(r.min()) if len(r) else 0.0
@@ -232,6 +233,7 @@ class MicroSimulation:
         self.t, self.nstep, self.evacuated, self._next_id = float(t), int(nstep), int(evacuated), int(next_id)
         self.moved_to = self.q
         self.cl, self.lam, self._C = None, np.zeros(0), None
+        self._pattern.forget()
 
     def constraints(self) -> Constraints:
         if self._C is None:
@@ -260,7 +262,7 @@ class MicroSimulation:
                 C = self.constraints()
                 d = np.maximum(C.D, -self._recover) / tau
                 res = project(C, U, d, method=self.method, lam0=self.lam, tol=self.tol,
-                              max_iter=self.max_iter)
+                              max_iter=self.max_iter, pattern=self._pattern)
                 moved = tau * np.sqrt((res.u * res.u).sum(1))
                 if self.cl.travel_ok(self.q, moved):
                     break
@@ -290,6 +292,7 @@ class MicroSimulation:
         if ngone:
             keep = ~gone
             kept_rows = self.cl.remove(keep)
+            self._pattern.keep(keep)
             self.lam = self.lam[kept_rows]
             self.q, self.r, self.ids = self.q[keep], self.r[keep], self.ids[keep]
             self.u, pressure = self.u[keep], pressure[keep]

@@ -5,7 +5,7 @@ import pytest
 
 from femcrowd.micro import MicroSimulation, project
 from femcrowd.micro.contacts import CandidateList, WallSet, merge_collinear
-from femcrowd.micro.projection import kkt_residual
+from femcrowd.micro.projection import NewtonPattern, kkt_residual
 from femcrowd.micro.sampling import read_discs_csv, sample_discs, target_count
 
 
@@ -251,3 +251,26 @@ def test_the_history_reports_overlap_gap_and_change():
     assert h["overlap_r"].max() <= 1e-9 and h["gap"].max() <= 1e-7
     assert (h["change"] > 0).any() and np.all(h["change"] < 0.05)
     assert s["max_overlap_r"] == h["overlap_r"].max() and s["max_gap"] == h["gap"].max()
+
+
+def test_a_kept_factorisation_pattern_gives_the_projection_of_a_fresh_one():
+    """The symbolic analysis kept from a projection serves the next one with the same rows, and still serves
+    after some discs left (their slots stay as identity blocks): no new analysis, the same projection."""
+    sim, group = _jammed_boxes()
+    constraints = lambda q, r: CandidateList(q, r, sim.walls, skin=0.05).constraints(q, r, sim.walls)  # noqa: E731
+    C = constraints(sim.q, sim.r)
+    U = np.random.default_rng(1).normal(size=(C.N, 2))
+    d = np.maximum(C.D, 0) / 0.05
+    pattern = NewtonPattern()
+    first = project(C, U, d, pattern=pattern)
+    analyses = pattern.analyses
+    again = project(C, U, d, pattern=pattern)
+    assert pattern.analyses == analyses and np.array_equal(again.u, first.u)
+    kept = group != 3                                   # the discs of one box leave
+    pattern.keep(kept)
+    C2 = constraints(sim.q[kept], sim.r[kept])
+    d2 = np.maximum(C2.D, 0) / 0.05
+    after = project(C2, U[kept], d2, pattern=pattern)
+    fresh = project(C2, U[kept], d2)
+    assert pattern.analyses == analyses
+    assert after.converged and fresh.converged and np.abs(after.u - fresh.u).max() < 1e-10
