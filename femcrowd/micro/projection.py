@@ -280,7 +280,7 @@ def _line_search(v, U, delta, z, w, rho):
     C1 = p1 + rho * float(np.dot(w[act0], w[act0]))
     if C0 >= 0:  # not a descent direction (round-off level gradient)
         return 0.0
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):   # w = 0 or tiny: no event
         t = -z / (rho * w)
     ev = np.flatnonzero((t > 0) & (t < 1) & (w != 0))
     # derivative at a = 1
