@@ -258,21 +258,25 @@ class MicroSimulation:
             if not self.cl.travel_ok(self.q, tau * speed):
                 self._rebuild(max(self._base_skin, 2.5 * tau * float(speed.max())))
                 rebuilds += 1
+            res, feasible_tol = None, self.tol * max(1.0, float(np.abs(U).max()))
             for attempt in range(6):
                 C = self.constraints()
                 d = np.maximum(C.D, -self._recover) / tau
-                res = project(C, U, d, method=self.method, lam0=self.lam, tol=self.tol,
-                              max_iter=self.max_iter, pattern=self._pattern)
+                # after a rebuild, velocities that satisfy the new rows (all inactive) are still the projection
+                if res is None or float((C.matvec(res.u) - d).max(initial=0.0)) > feasible_tol:
+                    res = project(C, U, d, method=self.method, lam0=self.lam, tol=self.tol,
+                                  max_iter=self.max_iter, pattern=self._pattern)
+                    self.lam = res.lam
                 moved = tau * np.sqrt((res.u * res.u).sum(1))
                 if self.cl.travel_ok(self.q, moved):
                     break
-                self._rebuild(max(self._base_skin, 2.5 * float(moved.max())))
+                self._rebuild(max(self._base_skin, 2.5 * float(moved.max())))   # carries self.lam over
                 rebuilds += 1
             else:  # pragma: no cover - would need an unbounded velocity
                 raise RuntimeError("candidate list could not cover the step")
-            u, lam = res.u, res.lam
+            u, lam = res.u, self.lam
             pressure = C.per_disc_sum(lam)
-            contacts = res.active
+            contacts = int(np.count_nonzero(lam > 0))
             q_new = self.q + tau * u
         else:
             u = np.zeros((0, 2))

@@ -274,3 +274,31 @@ def test_a_kept_factorisation_pattern_gives_the_projection_of_a_fresh_one():
     fresh = project(C2, U[kept], d2)
     assert pattern.analyses == analyses
     assert after.converged and fresh.converged and np.abs(after.u - fresh.u).max() < 1e-10
+
+
+def test_a_step_that_outran_its_candidate_list_keeps_velocities_that_fit_the_rebuilt_one(monkeypatch):
+    """A crowd pushed through a door: some steps move discs faster than their desired speed and outrun the
+    candidate list; the list is rebuilt, and the velocities, which satisfy its new rows, are kept (one
+    projection per step) with every invariant intact."""
+    import femcrowd.micro.scheme as scheme
+
+    calls = []
+    real = scheme.project
+    monkeypatch.setattr(scheme, "project", lambda *a, **k: calls.append(1) or real(*a, **k))
+    L, r = 8.0, 0.2
+    walls, exits = room_with_door(L, 3.5, 4.5)
+    P = np.array([[0, 0], [L, 0], [L, L], [0, L]], float)
+    T = np.array([[0, 1, 2], [0, 2, 3]])
+    q, rr = sample_discs(0.5, P, T, r, walls=np.concatenate([walls, exits]), seed=3)
+    door = np.array([L, 4.0])
+
+    def U(x, t):
+        v = door - x
+        return v / np.linalg.norm(v, axis=1)[:, None]
+
+    sim = MicroSimulation(q, rr, walls, exits, U, tau=0.05)
+    steps = rebuilds = 0
+    for info in sim.run(max_steps=150):
+        steps, rebuilds = steps + 1, rebuilds + info.rebuilds
+        assert info.overlap_r < 1e-9 and (info.converged or info.gap <= 1e-7)
+    assert rebuilds > 1 and len(calls) == steps
