@@ -119,9 +119,9 @@ def measure(n, steps, radius=0.2, tau=0.05, seed=0, samples=10) -> dict:
     jammed, facts, overlap, gap, change, checks = [], [], 0.0, 0.0, 0.0, []
     every = max(1, steps // samples)
     for k in range(steps):
-        sample = k % every == 0 and len(checks) < samples and sim.cl is not None
+        sample = k % every == 0 and len(checks) < samples and sim.contacts.cl is not None
         if sample:   # the projection this step will solve, to solve it again tightly
-            C, lam0, U = sim.constraints(), sim.lam.copy(), sim.desired_velocity()
+            C, lam0, U = sim.contacts.constraints(sim.q, sim.r), sim.contacts.lam.copy(), sim.desired_velocity()
             d = np.maximum(C.D, -sim._recover) / tau
         info = sim.step()
         facts.append(info.factorizations)

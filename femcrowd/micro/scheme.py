@@ -27,8 +27,9 @@ from typing import Callable, Iterator
 
 import numpy as np
 
-from .contacts import CandidateList, Constraints, WallSet, as_segments, merge_collinear
-from .projection import NewtonPattern, project
+from .contacts import WallSet, as_segments, merge_collinear
+from .network import ContactNetwork
+from .projection import project
 
 __all__ = ["StepInfo", "MicroSimulation", "exit_crossings"]
 
@@ -151,7 +152,7 @@ class MicroSimulation:
             raise ValueError(f"time step tau must be > 0, got {tau}")
         self.q, self.r = q, r
         self.ids = np.arange(len(q)) if ids is None else np.asarray(ids).copy()
-        self.walls = WallSet(walls)
+        self.contacts = ContactNetwork(WallSet(walls), skin)
         self.exits = merge_collinear(exits) if len(as_segments(exits)) else as_segments(exits)
         self.U = U
         self.tau = float(tau)
@@ -161,12 +162,7 @@ class MicroSimulation:
         self.method = method
         self.tol = tol
         self.max_iter = max_iter
-        self._skin = skin
-        self.cl: CandidateList | None = None
-        self.lam = np.zeros(0)
         self.u = np.zeros_like(q)
-        self._C: Constraints | None = None  # constraints at the current q (cached)
-        self._pattern = NewtonPattern()      # the projection's kept symbolic analysis
         # overlaps (round-off, or in the input) are removed by at most this much per
         # step: the QP stays feasible and no overlap can grow
         self._recover = 1e-3 * float(r.min()) if len(r) else 0.0
@@ -175,9 +171,8 @@ class MicroSimulation:
 
     def set_boundary(self, walls, exits) -> None:
         """New walls and exits (a door that closed or opened); the candidate list is rebuilt at the next step."""
-        self.walls = WallSet(walls)
+        self.contacts = ContactNetwork(WallSet(walls), self.contacts.skin)
         self.exits = merge_collinear(exits) if len(as_segments(exits)) else as_segments(exits)
-        self.cl, self._C, self.lam = None, None, np.zeros(0)
 
     def add(self, q, r) -> None:
         """Discs entering the scene (sources), with new ids; the candidate list is rebuilt at the next step."""
@@ -189,7 +184,7 @@ class MicroSimulation:
         self.ids = np.concatenate([self.ids, np.arange(first, first + len(q))])
         self._next_id = first + len(q)
         self.u = np.concatenate([self.u, np.zeros_like(q)])
-        self.cl, self._C, self.lam = None, None, np.zeros(0)
+        self.contacts.reset()
         self._recover = self._recover or 1e-3 * float(r.min())
 
     # ------------------------------------------------------------------
@@ -206,39 +201,12 @@ class MicroSimulation:
             raise FloatingPointError("desired velocity U returned NaN or inf")
         return U
 
-    def _rebuild(self, skin):
-        old_keys = None if self.cl is None else self.cl.keys(self.count)
-        self.cl = CandidateList(self.q, self.r, self.walls, skin)
-        if old_keys is not None and len(self.lam) == len(old_keys) and len(old_keys):
-            new_keys = self.cl.keys(self.count)
-            o = np.argsort(old_keys)
-            pos = np.searchsorted(old_keys[o], new_keys)
-            pos = np.minimum(pos, len(o) - 1)
-            hit = old_keys[o][pos] == new_keys
-            lam = np.zeros(len(new_keys))
-            lam[hit] = self.lam[o][pos[hit]]
-            self.lam = lam
-        else:
-            self.lam = np.zeros(self.cl.m)
-        self._C = None
-
-    def _default_skin(self, U):
-        rm = float(self.r.mean()) if self.count else 0.0
-        vmax = float(np.sqrt((U * U).sum(1)).max()) if self.count else 0.0
-        return max(0.5 * rm, 6.0 * self.tau * vmax)
-
     def restart(self, q, r, ids, u, t: float, nstep: int, evacuated: int, next_id: int) -> None:
         """Continue from given discs (a checkpoint): the candidate list and the multipliers are rebuilt."""
         self.q, self.r, self.ids, self.u = (np.array(a) for a in (q, r, ids, u))
         self.t, self.nstep, self.evacuated, self._next_id = float(t), int(nstep), int(evacuated), int(next_id)
         self.moved_to = self.q
-        self.cl, self.lam, self._C = None, np.zeros(0), None
-        self._pattern.forget()
-
-    def constraints(self) -> Constraints:
-        if self._C is None:
-            self._C = self.cl.constraints(self.q, self.r, self.walls)
-        return self._C
+        self.contacts.reset()
 
     # ------------------------------------------------------------------
     def step(self) -> StepInfo:
@@ -248,67 +216,47 @@ class MicroSimulation:
         N = self.count
         U = self.desired_velocity() if N else np.zeros((0, 2))
         rebuilds = 0
-        if N and self.cl is None:
-            self._base_skin = self._skin if self._skin is not None else self._default_skin(U)
-            self._rebuild(self._base_skin)
-            rebuilds += 1
         if N:
-            # proactive rebuild if the predicted move may leave the list's validity range
+            net = self.contacts
+            # the list must cover the predicted moves (desired or last speed, whichever is larger)
             speed = np.sqrt(np.maximum((U * U).sum(1), (self.u * self.u).sum(1)))
-            if not self.cl.travel_ok(self.q, tau * speed):
-                self._rebuild(max(self._base_skin, 2.5 * tau * float(speed.max())))
-                rebuilds += 1
+            rebuilds += net.cover(self.q, self.r, tau * speed, tau * np.sqrt((U * U).sum(1)))
             res, feasible_tol = None, self.tol * max(1.0, float(np.abs(U).max()))
             for attempt in range(6):
-                C = self.constraints()
+                C = net.constraints(self.q, self.r)
                 d = np.maximum(C.D, -self._recover) / tau
                 # after a rebuild, velocities that satisfy the new rows (all inactive) are still the projection
                 if res is None or float((C.matvec(res.u) - d).max(initial=0.0)) > feasible_tol:
-                    res = project(C, U, d, method=self.method, lam0=self.lam, tol=self.tol,
-                                  max_iter=self.max_iter, pattern=self._pattern)
-                    self.lam = res.lam
+                    res = project(C, U, d, method=self.method, lam0=net.lam, tol=self.tol,
+                                  max_iter=self.max_iter, pattern=net.pattern)
+                    net.lam = res.lam
                 moved = tau * np.sqrt((res.u * res.u).sum(1))
-                if self.cl.travel_ok(self.q, moved):
+                if net.cl.travel_ok(self.q, moved):
                     break
-                self._rebuild(max(self._base_skin, 2.5 * float(moved.max())))   # carries self.lam over
+                net.rebuild(self.q, self.r, max(net.base_skin, 2.5 * float(moved.max())))   # carries lam over
                 rebuilds += 1
             else:  # pragma: no cover - would need an unbounded velocity
                 raise RuntimeError("candidate list could not cover the step")
-            u, lam = res.u, self.lam
+            u, lam = res.u, net.lam
             pressure = C.per_disc_sum(lam)
             contacts = int(np.count_nonzero(lam > 0))
             q_new = self.q + tau * u
         else:
-            u = np.zeros((0, 2))
-            lam = np.zeros(0)
-            pressure = np.zeros(0)
-            contacts = 0
-            q_new = self.q
-            res = None
+            u, pressure, contacts, q_new, res = np.zeros((0, 2)), np.zeros(0), 0, self.q, None
         # exits
         gone = exit_crossings(self.q, q_new, self.exits) if N else np.zeros(0, bool)
         ngone = int(gone.sum())
-        self.moved_to = q_new
-        self.q = q_new
+        self.moved_to = self.q = q_new
         self.u = u
-        self.lam = lam
-        self._C = None
+        self.contacts.moved()
         if ngone:
             keep = ~gone
-            kept_rows = self.cl.remove(keep)
-            self._pattern.keep(keep)
-            self.lam = self.lam[kept_rows]
+            self.contacts.remove(keep)
             self.q, self.r, self.ids = self.q[keep], self.r[keep], self.ids[keep]
             self.u, pressure = self.u[keep], pressure[keep]
             self.evacuated += ngone
         # gaps at the new configuration: diagnostics and next step's constraints
-        max_overlap = overlap_r = 0.0
-        if self.count and self.cl is not None:
-            C1 = self.constraints()
-            if C1.m:
-                max_overlap = max(0.0, float(-C1.D.min()))
-                radius = np.concatenate([np.minimum(self.r[C1.pi], self.r[C1.pj]), self.r[C1.wi]])
-                overlap_r = max(0.0, float((-C1.D / radius).max()))
+        max_overlap, overlap_r = self.contacts.overlaps(self.q, self.r)
         self.t += tau
         self.nstep += 1
         return StepInfo(
@@ -329,7 +277,7 @@ class MicroSimulation:
             converged=True if res is None else res.converged,
             fallback=False if res is None else res.fallback,
             rebuilds=rebuilds,
-            candidates=0 if self.cl is None else self.cl.m,
+            candidates=self.contacts.candidates,
             step_seconds=_time.perf_counter() - t_start,
             ids=self.ids,
             q=self.q,

@@ -120,8 +120,8 @@ def _jammed_boxes(nbox=100, seed=0, steps=40):
 
 def test_exact_and_uzawa_agree_on_jammed_configurations():
     sim, group = _jammed_boxes()
-    cl = CandidateList(sim.q, sim.r, sim.walls, skin=0.05)
-    C = cl.constraints(sim.q, sim.r, sim.walls)
+    cl = CandidateList(sim.q, sim.r, sim.contacts.walls, skin=0.05)
+    C = cl.constraints(sim.q, sim.r, sim.contacts.walls)
     assert (C.D < 1e-9).sum() > 15 * 100 / 2  # jammed: many touching pairs
     rng = np.random.default_rng(1)
     U = rng.normal(size=(C.N, 2))
@@ -222,7 +222,7 @@ def test_a_warm_jam_is_projected_to_its_certified_accuracy():
     interior point: its velocities are strictly feasible and their objective is within the relative gap it
     certifies of the exact minimum; with gap_tol = 1e-12 they agree with the exact projection."""
     sim, _ = _jammed_boxes()
-    C = CandidateList(sim.q, sim.r, sim.walls, skin=0.05).constraints(sim.q, sim.r, sim.walls)
+    C = CandidateList(sim.q, sim.r, sim.contacts.walls, skin=0.05).constraints(sim.q, sim.r, sim.contacts.walls)
     rng = np.random.default_rng(1)
     U = rng.normal(size=(C.N, 2))
     d = np.maximum(C.D, 0) / 0.05
@@ -257,7 +257,7 @@ def test_a_kept_factorisation_pattern_gives_the_projection_of_a_fresh_one():
     """The symbolic analysis kept from a projection serves the next one with the same rows, and still serves
     after some discs left (their slots stay as identity blocks): no new analysis, the same projection."""
     sim, group = _jammed_boxes()
-    constraints = lambda q, r: CandidateList(q, r, sim.walls, skin=0.05).constraints(q, r, sim.walls)  # noqa: E731
+    constraints = lambda q, r: CandidateList(q, r, sim.contacts.walls, skin=0.05).constraints(q, r, sim.contacts.walls)  # noqa: E731
     C = constraints(sim.q, sim.r)
     U = np.random.default_rng(1).normal(size=(C.N, 2))
     d = np.maximum(C.D, 0) / 0.05

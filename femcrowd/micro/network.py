@@ -1,0 +1,93 @@
+"""The contacts a catching-up step sees (Maury 2014, sec. 2.2-2.3).
+
+A :class:`ContactNetwork` holds the Verlet candidate list at the current
+centres and its constraint rows, and what carries over from step to step:
+the multipliers of the rows (the projection's warm start, kept pair by pair
+across rebuilds of the list and exits of discs) and the kept symbolic
+analysis of the projection's Newton matrices (:class:`NewtonPattern`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .contacts import CandidateList, Constraints, WallSet
+from .projection import NewtonPattern
+
+__all__ = ["ContactNetwork"]
+
+
+class ContactNetwork:
+    """Candidate list, constraint rows, multipliers and factorisation pattern of a crowd of discs.
+
+    skin: the list's skin; None: at the first build 6 times the longest move, at least half the mean
+    radius, and after that at least that much.
+    """
+
+    def __init__(self, walls: WallSet, skin: float | None = None):
+        self.walls, self.skin = walls, skin
+        self.pattern = NewtonPattern()
+        self.reset()
+
+    def reset(self) -> None:
+        """Start afresh at the next step (discs added, walls changed, a restart)."""
+        self.cl: CandidateList | None = None
+        self._C: Constraints | None = None
+        self.lam = np.zeros(0)
+        self.pattern.forget()
+
+    def cover(self, q, r, travel, desired) -> int:
+        """Build the list (its skin from the desired moves' lengths), or rebuild it if moves of the per-disc
+        lengths `travel` may leave it; returns the number of (re)builds."""
+        if self.cl is None:
+            self.base_skin = self.skin if self.skin is not None else max(0.5 * float(r.mean()),
+                                                                         6.0 * float(desired.max()))
+            self.rebuild(q, r, self.base_skin)
+            return 1 + self.cover(q, r, travel, desired)
+        if self.cl.travel_ok(q, travel):
+            return 0
+        self.rebuild(q, r, max(self.base_skin, 2.5 * float(travel.max())))
+        return 1
+
+    def rebuild(self, q, r, skin: float) -> None:
+        """A new list at q; the multipliers of the pairs (and disc-wall rows) in both lists carry over."""
+        old_keys = None if self.cl is None else self.cl.keys(len(q))
+        self.cl = CandidateList(q, r, self.walls, skin)
+        lam = np.zeros(self.cl.m)
+        if old_keys is not None and len(old_keys) and len(self.lam) == len(old_keys):
+            new_keys = self.cl.keys(len(q))
+            o = np.argsort(old_keys)
+            pos = np.minimum(np.searchsorted(old_keys[o], new_keys), len(o) - 1)
+            hit = old_keys[o][pos] == new_keys
+            lam[hit] = self.lam[o][pos[hit]]
+        self.lam, self._C = lam, None
+
+    def constraints(self, q, r) -> Constraints:
+        """The rows of the list at the centres q (computed once per configuration)."""
+        if self._C is None:
+            self._C = self.cl.constraints(q, r, self.walls)
+        return self._C
+
+    def moved(self) -> None:
+        """The centres changed: the rows are computed again when asked for."""
+        self._C = None
+
+    def remove(self, keep) -> None:
+        """Discs left (boolean mask of those that stay): their rows and pattern slots go."""
+        self.lam = self.lam[self.cl.remove(keep)]
+        self.pattern.keep(keep)
+        self._C = None
+
+    def overlaps(self, q, r) -> tuple[float, float]:
+        """The largest overlap at the centres q, in metres and over the smaller radius of the pair."""
+        if self.cl is None or not len(q):
+            return 0.0, 0.0
+        C = self.constraints(q, r)
+        if not C.m:
+            return 0.0, 0.0
+        radius = np.concatenate([np.minimum(r[C.pi], r[C.pj]), r[C.wi]])
+        return max(0.0, float(-C.D.min())), max(0.0, float((-C.D / radius).max()))
+
+    @property
+    def candidates(self) -> int:
+        return 0 if self.cl is None else self.cl.m
