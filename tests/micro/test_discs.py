@@ -21,6 +21,16 @@ def room_with_door(L, y0, y1):
     return walls, exits
 
 
+def crowd_in_room_with_door(L, r, density, seed):
+    """Discs of radius r sampled at a density in the room of :func:`room_with_door` (door 1 m wide, in the
+    middle of the wall x = L): centres, radii, walls, exits."""
+    walls, exits = room_with_door(L, L / 2 - 0.5, L / 2 + 0.5)
+    P = np.array([[0, 0], [L, 0], [L, L], [0, L]], float)
+    T = np.array([[0, 1, 2], [0, 2, 3]])
+    q, rr = sample_discs(density, P, T, r, walls=np.concatenate([walls, exits]), seed=seed)
+    return q, rr, walls, exits
+
+
 def pairwise_min_gap(q, r):
     if len(q) < 2:
         return np.inf
@@ -190,10 +200,7 @@ def test_read_discs_csv(tmp_path):
 
 def test_small_room_evacuates_without_overlap():
     L, r = 4.0, 0.15
-    walls, exits = room_with_door(L, 1.5, 2.5)
-    P = np.array([[0, 0], [L, 0], [L, L], [0, L]], float)
-    T = np.array([[0, 1, 2], [0, 2, 3]])
-    q, rr = sample_discs(0.35, P, T, r, walls=np.concatenate([walls, exits]), seed=2)
+    q, rr, walls, exits = crowd_in_room_with_door(L, r, 0.35, seed=2)
     door = np.array([L, 2.0])
 
     def U(x, t):
@@ -285,11 +292,8 @@ def test_a_step_that_outran_its_candidate_list_keeps_velocities_that_fit_the_reb
     calls = []
     real = scheme.project
     monkeypatch.setattr(scheme, "project", lambda *a, **k: calls.append(1) or real(*a, **k))
-    L, r = 8.0, 0.2
-    walls, exits = room_with_door(L, 3.5, 4.5)
-    P = np.array([[0, 0], [L, 0], [L, L], [0, L]], float)
-    T = np.array([[0, 1, 2], [0, 2, 3]])
-    q, rr = sample_discs(0.5, P, T, r, walls=np.concatenate([walls, exits]), seed=3)
+    L = 8.0
+    q, rr, walls, exits = crowd_in_room_with_door(L, 0.2, 0.5, seed=3)
     door = np.array([L, 4.0])
 
     def U(x, t):
