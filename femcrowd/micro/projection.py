@@ -208,17 +208,17 @@ class NewtonPattern:
         rank[order] = np.arange(len(order))
         self.diag = rank[: 3 * n].reshape(3, n).T                  # (n, 3) positions
         self.off = rank[3 * n:].reshape(4, -1).T                   # (pairs, 4) positions
-        self.entries = len(order)
+        self.identity = np.zeros(len(order))                      # the I of I + B^T diag(w) B
+        self.identity[self.diag[:, [0, 2]].ravel()] = 1.0
         self.fact = Cholesky(rows[order], cols[order], 2 * n, supernodal=2, print=0) if n else None
 
 
 def _contains(sorted_keys, keys) -> bool:
-    if sorted_keys is None:
-        return False
-    if len(keys) == 0:
-        return True
-    pos = np.minimum(np.searchsorted(sorted_keys, keys), max(len(sorted_keys) - 1, 0))
-    return len(sorted_keys) > 0 and bool(np.all(sorted_keys[pos] == keys))
+    """All keys are in the sorted array (None: no pattern yet)."""
+    if sorted_keys is None or len(sorted_keys) == 0:
+        return sorted_keys is not None and len(keys) == 0
+    pos = np.minimum(np.searchsorted(sorted_keys, keys), len(sorted_keys) - 1)
+    return bool(np.all(sorted_keys[pos] == keys))
 
 
 class _NewtonMatrix:
@@ -243,8 +243,7 @@ class _NewtonMatrix:
         rows = np.arange(C.m)
         self.row = np.concatenate([np.repeat(rows[: C.mp], 3), np.repeat(rows[: C.mp], 3),
                                    np.repeat(rows[C.mp:], 3), np.repeat(rows[: C.mp], 4)])
-        self.identity = np.zeros(pattern.entries)
-        self.identity[pattern.diag[:, [0, 2]].ravel()] = 1.0
+        self.identity = pattern.identity
         self.fact, self.slots = pattern.fact, len(pattern.discs)
         # the pattern's slots whose disc is still here (one that left holds -1), and those discs
         self.slot = np.flatnonzero(pattern.discs >= 0)
