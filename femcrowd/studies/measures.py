@@ -2,7 +2,8 @@
 of a refinement series (docs/model.md, "Exact solutions"). The metrics, at a measurement time t:
 
     l1              sum_K |K| |rho_K - <rho>_K|           (<.>_K: cell average of the reference)
-    l1_pixels       the same on a 50 x 50 pixel grid of the bounding box (both fields averaged on pixels)
+    l1_pixels       the same on a 50 x 50 pixel grid of the bounding box (both fields averaged on pixels;
+                    rho_h exactly, through the cells' intersections with the pixels)
     symdiff         area of the symmetric difference of the saturated zones {rho >= 1 - 1e-9}
     front_error     front position read where the transverse (x) or angular (r) average of the
                     density crosses the mid-level of the jump at the front, minus the reference's
@@ -12,10 +13,13 @@ of a refinement series (docs/model.md, "Exact solutions"). The metrics, at a mea
                     coordinate (POT); equal to the 2-D distances for these x- or r-symmetric solutions
 """
 
+import functools
 import inspect
 import math
 
 import numpy as np
+import shapely
+from scipy import sparse
 
 from ..errors import InputError
 from ..macro.diagnostics import SATURATED
@@ -33,7 +37,7 @@ METRICS = {
     "w2": "W2 distance (m)",
 }
 PIXELS = 50
-PIXEL_SAMPLES = 8  # samples per pixel side (midpoint rule)
+FUNCTION_SAMPLES = 64  # samples per pixel side for the pixel averages of the reference (midpoint rule)
 #: front geometry of the exact solutions: profile coordinate and the density level read at the front
 #: (midway between 1 and the density just outside the saturated zone: (1 + a)/2, (1 + sqrt(a))/2, 1/2)
 FRONTS = {WallAccumulation: ("x", lambda s: (1 + s.a) / 2),
@@ -84,6 +88,9 @@ class ExactReference:
     def evacuated(self, t):
         return np.array([self.exact.evacuated(s) for s in t])
 
+    def pixel_averages(self, pixels, t):
+        return pixels.of_function(self.density, t)
+
 
 class LevelReference:
     """The finest level of a series as the reference (self-convergence)."""
@@ -91,7 +98,9 @@ class LevelReference:
     coordinate = None
 
     def __init__(self, points, triangles, states, curve, has_exits):
+        self.points, self.triangles = points, triangles
         self.locator = PointLocator(points, triangles)
+        self.pixels = None
         self.states = {s["time"]: s for s in states}
         self.curve = curve
         self.has_evacuated = has_exits
@@ -109,6 +118,12 @@ class LevelReference:
 
     def evacuated(self, t):
         return np.interp(t, self.curve[:, 0], self.curve[:, 1])
+
+    def pixel_averages(self, pixels, t):
+        """Exact pixel averages of the finest level's cell-wise density, on the measured grid's pixels."""
+        if self.pixels is None:
+            self.pixels = Pixels(self.points, self.triangles, pixels.box)
+        return self.pixels.of_cells(self.states[t]["rho"])
 
 
 def measure(domain, state: dict, reference, curve) -> dict:
@@ -137,18 +152,76 @@ def measure(domain, state: dict, reference, curve) -> dict:
 
 
 def _pixel_l1(domain, rho, reference, t):
-    """L1 distance of the pixel averages (PIXELS^2 pixels over the bounding box, midpoint rule)."""
-    lo, hi = domain.points.min(0), domain.points.max(0)
-    n = PIXELS * PIXEL_SAMPLES
-    xs = lo[0] + (np.arange(n) + 0.5) * (hi[0] - lo[0]) / n
-    ys = lo[1] + (np.arange(n) + 0.5) * (hi[1] - lo[1]) / n
-    X, Y = np.meshgrid(xs, ys, indexing="ij")
-    cell = domain.locate(np.column_stack([X.ravel(), Y.ravel()])).reshape(X.shape)
-    inside = cell >= 0
-    computed = np.where(inside, rho[np.maximum(cell, 0)], 0.0)
-    exact = np.where(inside, reference.density(X, Y, t), 0.0)
-    diff = (computed - exact).reshape(PIXELS, PIXEL_SAMPLES, PIXELS, PIXEL_SAMPLES).mean(axis=(1, 3))
-    return float(np.abs(diff).sum() * np.prod(hi - lo) / PIXELS ** 2)
+    """L1 distance of the pixel averages of rho_h and of the reference (PIXELS^2 pixels over the bounding box)."""
+    pixels = _pixels_of(domain)
+    diff = pixels.of_cells(rho) - reference.pixel_averages(pixels, t)
+    return float(np.abs(diff).sum() * pixels.area)
+
+
+@functools.lru_cache(maxsize=1)
+def _pixels_of(domain):
+    """The pixel grid of a domain, built once for the several states a study measures on it."""
+    return Pixels(domain.points, domain.triangles)
+
+
+class Pixels:
+    """Averages on the PIXELS x PIXELS grid over a triangulation's bounding box, outside it counted as 0.
+
+    A cell-wise constant field is averaged exactly, through the areas |K n P| of the cells' intersections
+    with the pixels (shapely); a function by the midpoint rule on FUNCTION_SAMPLES^2 points a pixel, the
+    points outside the triangulation left out. A midpoint rule would do for the cell-wise field only with
+    many points in every cell: with a few per pixel it measures its own sampling (docs/convergence.md).
+    """
+
+    def __init__(self, points, triangles, box=None):
+        self.points, self.triangles = points, triangles
+        self.box = box if box is not None else (points.min(0), points.max(0))
+        self.lo = self.box[0]
+        self.size = (self.box[1] - self.lo) / PIXELS
+        self.area = float(np.prod(self.size))
+        self._locator = None
+        corners = points[triangles]                                                   # (cells, 3, 2)
+        first = np.clip(((corners.min(1) - self.lo) // self.size).astype(int), 0, PIXELS - 1)
+        last = np.clip(((corners.max(1) - self.lo) // self.size).astype(int), 0, PIXELS - 1)
+        one = np.all(first == last, axis=1)                                           # cells in one pixel
+        e1, e2 = corners[one, 1] - corners[one, 0], corners[one, 2] - corners[one, 0]
+        cells, pixels = [np.flatnonzero(one)], [first[one] @ [PIXELS, 1]]
+        areas = [0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])]
+        span = last - first
+        for di in range(int(span[:, 0].max()) + 1):                                   # the others: clipped
+            for dj in range(int(span[:, 1].max()) + 1):
+                k = np.flatnonzero(~one & (di <= span[:, 0]) & (dj <= span[:, 1]))
+                ij = first[k] + [di, dj]
+                box = shapely.box(*(self.lo + ij * self.size).T, *(self.lo + (ij + 1) * self.size).T)
+                cells.append(k)
+                pixels.append(ij @ [PIXELS, 1])
+                areas.append(shapely.area(shapely.intersection(shapely.polygons(corners[k]), box)))
+        self.weights = sparse.csr_array((np.concatenate(areas) / self.area,
+                                         (np.concatenate(pixels), np.concatenate(cells))),
+                                        shape=(PIXELS * PIXELS, len(triangles)))
+        self.covered = self.weights.sum(axis=1)                                      # area fraction in the mesh
+
+    def of_cells(self, values):
+        """Pixel averages of the field equal to values[K] on cell K (exact)."""
+        return self.weights @ values
+
+    def of_function(self, f, t):
+        """Pixel averages of f(x, y, t) (midpoint rule), a row of pixels at a time."""
+        n = FUNCTION_SAMPLES
+        offsets = (np.arange(n) + 0.5) / n
+        y = self.lo[1] + (np.arange(PIXELS * n) + 0.5) / n * self.size[1]
+        out = np.empty((PIXELS, PIXELS))
+        for i in range(PIXELS):
+            X, Y = np.meshgrid(self.lo[0] + (i + offsets) * self.size[0], y, indexing="ij")
+            values = f(X, Y, t)
+            partial = np.broadcast_to(np.repeat(self.covered[i * PIXELS:(i + 1) * PIXELS] < 1 - 1e-9, n), X.shape)
+            if partial.any():
+                if self._locator is None:
+                    self._locator = PointLocator(self.points, self.triangles)
+                outside = self._locator(np.column_stack([X[partial], Y[partial]])) < 0
+                values[partial] = np.where(outside, 0.0, values[partial])
+            out[i] = values.reshape(n, PIXELS, n).mean(axis=(0, 2))
+        return out.ravel()
 
 
 class FrontReader:
