@@ -16,6 +16,11 @@ is taken between the two largest sizes.
     python benchmarks/scale.py --sizes 1e4 1e5 --steps 20
     python benchmarks/scale.py --long               # the 10^6 hall until empty, end to end (femcrowd.run)
     python benchmarks/scale.py --long --long-size 1e5 --transport upwind --cfl 0.5
+    python benchmarks/scale.py --long --capacity 1   # the same, its door capped at 1 (density x speed) per metre
+
+``--capacity C`` gives the door a capacity of C per metre and per second (units of rho_max x m/s: 1 is the
+flow of a saturated crowd walking at its desired speed, without the pressure's push): benchmarks/capacity.py
+compares the cost per step with and without it.
 """
 
 import argparse
@@ -61,7 +66,7 @@ def peak_memory_gb():
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20  # ru_maxrss is in KiB on Linux
 
 
-def one_size(target, steps):
+def one_size(target, steps, capacity=None):
     """All phases at one size; returns a dict of medians and totals (seconds)."""
     from femcrowd.case import Expression
     from femcrowd.driver.output import FrameSeries, triangle_frame
@@ -74,7 +79,7 @@ def one_size(target, steps):
     out = {"target": target}
     tic = time.perf_counter()
     domain = load_domain(path, ["exit"])
-    boundary = Boundary(domain)
+    boundary = Boundary(domain, capacity=None if capacity is None else {"exit": capacity})
     exits = boundary.at(0.0)
     out["mesh_load"] = time.perf_counter() - tic
     out["triangles"] = domain.ncells
@@ -87,7 +92,7 @@ def one_size(target, steps):
     state = MacroState.initial(Expression(DENSITY)(*domain.centroid.T, 0.0)[None], 1)
     tic = time.perf_counter()
     solver = MacroSolver(domain, boundary, [velocity], cfl=0.5)
-    projection = solver.projection(exits)[0]
+    projection = solver.projection(exits)
     transport = solver.transports(state, exits)[0]
     out["assembly"] = time.perf_counter() - tic
     tic = time.perf_counter()
@@ -165,18 +170,19 @@ def one_size(target, steps):
     return out
 
 
-def long_run(target, transport, cfl):
+def long_run(target, transport, cfl, capacity=None):
     """The complete evacuation of the hall through the user path (femcrowd.run), timed end to end: it stops
     once less than time.empty_fraction of the crowd is inside."""
     from femcrowd import load_case, run
     from femcrowd.driver.reading import read_history
 
     path = mesh_file(target)
-    case_dir = CACHE / f"long_{int(target)}_{transport}_{cfl:g}"
+    case_dir = CACHE / f"long_{int(target)}_{transport}_{cfl:g}" + (f"_c{capacity:g}" if capacity else "")
     case_dir.mkdir(parents=True, exist_ok=True)
     (case_dir / "case.toml").write_text(
         f'title = "benchmark hall, {int(target)} triangles"\n[mesh]\nfile = "{path}"\n'
-        f'[boundary]\nexits = ["exit"]\n[initial]\ndensity = "{DENSITY}"\n'
+        f'[boundary]\nexits = ["exit"]\n' + (f"capacity = {{ exit = {capacity!r} }}\n" if capacity else "") +
+        f'[initial]\ndensity = "{DENSITY}"\n'
         f'[scheme]\ntransport = "{transport}"\n[time]\nend = 1000.0\ncfl = {cfl!r}\n[output]\nevery = 20.0\n')
     tic = time.perf_counter()
     summary = run(load_case(case_dir), out=case_dir / "output", force=True).summary
@@ -192,7 +198,8 @@ def long_run(target, transport, cfl):
             "mass_error": summary["max_mass_error"], "max_density": summary["max_density_ever"],
             "min_density": summary["min_density_ever"], "min_pressure": summary["min_pressure_ever"],
             "active_set_iterations": summary["active_set_iterations"],
-            "evacuated_fraction": summary["evacuated"] / summary["initial_mass"]}
+            "evacuated_fraction": summary["evacuated"] / summary["initial_mass"], "capacity": capacity,
+            "door": summary.get("doors", {}).get("exit")}
 
 
 ROWS = [("triangles", "triangles", "{:.0f}"), ("mesh load [s]", "mesh_load", "{:.2f}"),
@@ -254,15 +261,17 @@ def main():
     parser.add_argument("--long-size", type=float, default=1e6, help="triangles of the --long run")
     parser.add_argument("--transport", default="implicit", help="scheme.transport of the --long run")
     parser.add_argument("--cfl", type=float, default=20.0, help="time.cfl of the --long run")
+    parser.add_argument("--capacity", type=float, help="capacity of the door, per metre (rho_max x m/s)")
     parser.add_argument("--one", type=float, help=argparse.SUPPRESS)
     parser.add_argument("--long-child", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.one:
-        print(json.dumps(one_size(args.one, args.steps)))
+        print(json.dumps(one_size(args.one, args.steps, args.capacity)))
         return
-    long_args = ["--long-size", str(args.long_size), "--transport", args.transport, "--cfl", str(args.cfl)]
+    capped = ["--capacity", str(args.capacity)] if args.capacity else []
+    long_args = ["--long-size", str(args.long_size), "--transport", args.transport, "--cfl", str(args.cfl), *capped]
     if args.long_child:
-        print(json.dumps(long_run(args.long_size, args.transport, args.cfl)))
+        print(json.dumps(long_run(args.long_size, args.transport, args.cfl, args.capacity)))
         return
     if args.long:
         mesh_file(args.long_size)   # meshing is not part of the timing
@@ -276,7 +285,7 @@ def main():
     for size in args.sizes:
         for mesh in [mesh_file(size)]:  # meshing is not part of any timing
             assert mesh.exists()
-        results.append(child(["--one", str(size), "--steps", str(args.steps)]))
+        results.append(child(["--one", str(size), "--steps", str(args.steps), *capped]))
         print(f"size {size:.0e} done: {results[-1]['triangles']} triangles", file=sys.stderr)
     print(table(results))
     if len(results) >= 2:

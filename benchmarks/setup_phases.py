@@ -88,14 +88,14 @@ def one_size(target, repeat, steps):
     dt = 0.5 * transport.max_dt
     rho = Expression(scale.DENSITY)(*domain.centroid.T, 0.0)
     mass0 = domain.area @ rho
-    rho, evacuated = transport.step(rho, dt)  # the first step applies F: B is built on the second
-    rho, out_step = transport.step(rho, dt)
+    rho, evacuated, _ = transport.step(rho, dt)  # the first step applies F: B is built on the second
+    rho, out_step, _ = transport.step(rho, dt)
     evacuated = float(evacuated.sum() + out_step.sum())
     update = transport._update
     times = {"transport": [], "matvec": []}
     for _ in range(steps):  # interleaved, so that both see the same load of the machine
         tic = time.perf_counter()
-        rho, out_step = transport.step(rho, dt)
+        rho, out_step, _ = transport.step(rho, dt)
         times["transport"].append(time.perf_counter() - tic)
         evacuated += float(out_step.sum())
         times["matvec"].append(elapsed(lambda: update @ rho))

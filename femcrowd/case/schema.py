@@ -51,6 +51,10 @@ class NamedTables:
 SPEED_LAW_DOC = ('the desired speed is f(rho) x speed: "constant" (f = 1), "linear" (f = 1 - rho/rho_max), '
                  '"weidmann" (Weidmann 1993, rho_max in persons/m^2) or an expression in rho (in units of rho_max, '
                  '0..1); f non-increasing in [0, 1]; f(1) = 0: the projection is never needed')
+#: push: the least factor of the speed law (macro/speed_law.py)
+PUSH_DOC = ("people in a jam still push at push x speed: the speed law's f never falls below it, so f(1) > 0 and "
+            "the projection's pressure moves a jam towards the exits (docs/model.md); 0: a law with f(1) = 0 "
+            "never pushes, and a jam where the directions meet (a door's corner) never moves")
 #: the keys of one [populations.<name>] table; the velocity keys override [velocity] for this population
 POPULATION = {
     "density": Key(0.0, "expr", "this population's initial density in [0, rho_max]: a number or an expression "
@@ -59,6 +63,7 @@ POPULATION = {
     "type": Key(None, "choice", "overrides velocity.type for this population", ("exits", "field")),
     "speed": Key(None, "expr", "overrides velocity.speed for this population"),
     "speed_law": Key(None, "law", "overrides velocity.speed_law for this population"),
+    "push": Key(None, "number", "overrides velocity.push for this population", low=0, high=1),
     "ux": Key(None, "expr", "overrides velocity.ux for this population"),
     "uy": Key(None, "expr", "overrides velocity.uy for this population"),
 }
@@ -74,6 +79,10 @@ SCHEMA = {
         "open": Key({}, "schedules", "when each exit is open: a table of exit names to lists of [from, to] times "
                     "(s; to may be inf), e.g. { door = [[0, 10], [30, inf]] }; [] keeps an exit closed; "
                     "a closed exit is a wall (default: always open)"),
+        "capacity": Key({}, "capacities", "the most a door lets through, persons per metre per second (density unit "
+                        "x m/s): a table of door names (exits, or interior physical line groups: doors between two "
+                        "rooms) to capacities, e.g. { exit = 1.9 }; while a door is at capacity the crowd behind it "
+                        "queues and pushes on it as on a wall (default: no cap, the free exit of the paper)"),
     },
     "model": {
         "type": Key("macro", "choice", '"macro" (a density) or "micro" (rigid discs)', ("macro", "micro")),
@@ -87,6 +96,7 @@ SCHEMA = {
         "ux": Key(0.0, "expr", "x component of U (m/s) for type field: an expression in x, y, t"),
         "uy": Key(0.0, "expr", "y component of U (m/s) for type field: an expression in x, y, t"),
         "speed_law": Key("constant", "law", SPEED_LAW_DOC),
+        "push": Key(0.0, "number", PUSH_DOC, low=0, high=1),
     },
     "populations": NamedTables(POPULATION, "several populations, one table [populations.<name>] each (name: letters, "
                           "digits, _ and -), sharing one constraint and one pressure; without it the crowd of "
@@ -134,6 +144,10 @@ SCHEMA = {
                              "density of the speed law", low=0, low_open=True),
         "view_angle": Key(45.0, "number", "half angle of view (degrees) of the strategies and the speed law",
                           low=0, high=90, low_open=True),
+        "fluctuation": Key(0.0, "number", "the standard deviation (m/s, per component) of a random perturbation of "
+                           "each disc's desired velocity, an Ornstein-Uhlenbeck process of correlation time 0.5 s "
+                           "seeded from micro.seed, which breaks the arches at narrow doors (2.5 lets pushing discs "
+                           "through a 0.5 m door: docs/micro.md); 0: the discs of Maury and Venel", low=0),
     },
     "scheme": {
         "transport": Key("upwind", "choice", "the prediction: order-0 upwind; limited linear reconstruction with "
@@ -261,6 +275,13 @@ def check_value(spec: Key, value, file, key: str):
         if not isinstance(value, list) or len(value) < 3 or not all(_point(p) for p in value):
             fail("expected a polygon [[x, y], ...] of at least 3 points")
         return [[float(v) for v in p] for p in value]
+    if kind == "capacities":
+        if not isinstance(value, dict):
+            fail("expected a table of door names to capacities (persons per metre per second)")
+        for name, c in value.items():
+            if not is_number(c) or not math.isfinite(c) or c <= 0:
+                raise InputError(file, f"{key}.{name}", c, "expected a capacity > 0 (persons per metre per second)")
+        return {name: float(c) for name, c in value.items()}
     if kind == "schedules":
         if not isinstance(value, dict):
             fail("expected a table of exit names to lists of [from, to] times")

@@ -1,5 +1,5 @@
 """``femcrowd new``: a commented case.toml for a mesh, every key at its default (from the SCHEMA),
-exits = the mesh's boundary groups not named wall*."""
+exits = the mesh's boundary groups not named wall* (interior line groups are offered a capacity)."""
 
 import json
 import math
@@ -37,7 +37,8 @@ def new_case(case_dir, mesh_file) -> Path:
                          "(choose another directory, or edit this file)")
     domain = load_domain(mesh_file, (), 0, case_file=file)
     groups = domain.statistics()["boundary_groups"]
-    exits = [name for name in groups if not wall_like(name)]
+    inside = [name for name, facets in domain.groups.items() if len(facets) and domain.interior[facets].all()]
+    exits = [name for name in groups if not wall_like(name) and name not in inside]
     surfaces = [name for name in (domain.mesh.subdomains or {}) if not name.startswith("gmsh:")]
     (x0, y0), (x1, y1) = domain.points.min(axis=0), domain.points.max(axis=0)
     # about four walks across the floor at 1 m/s; the run stops earlier once everybody has left
@@ -47,6 +48,8 @@ def new_case(case_dir, mesh_file) -> Path:
     if exits:
         velocity = [('type = "exits"', "U = -speed grad d / |grad d|, d = walking distance to the nearest exit"),
                     (f'speed = {_default("velocity", "speed")}', "m/s: number or expression in x, y"),
+                    ('# speed_law = "weidmann"', "slower in a dense crowd (rho_max in persons/m^2)"),
+                    ("# push = 0.2", "with a speed law: a jam still pushes at push x speed"),
                     ('# type = "field"', "or U given by expressions in x, y, t:"), '# ux = "-1"', '# uy = "0"']
     else:
         velocity = [('type = "field"', "the mesh has no exit: U given by expressions in x, y, t"),
@@ -62,6 +65,8 @@ def new_case(case_dir, mesh_file) -> Path:
         "", "[boundary]",
         f"# boundary groups of the mesh: {group_list}",
         (f"exits = {toml_value(exits)}", "groups that are exits; every other boundary edge is a wall"),
+        (f"# capacity = {{ {(exits + inside + ['exit'])[0]} = 1.9 }}",
+         "persons/(m s) a door (an exit or an interior line) lets through at most"),
         "", "[model]",
         (f'type = {_default("model", "type")}', '"macro" (density) | "micro" (discs)'),
         (f'rho_max = {_default("model", "rho_max")}', "saturation density in your unit, e.g. 5.0 (people/m^2)"),

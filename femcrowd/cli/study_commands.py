@@ -132,16 +132,21 @@ def stress(out, only, cases, force, checks):
               help="Directory for the runs (OUT/<case>-<model>) and the table rimea.md, relative to the current "
                    "directory.")
 @click.option("--only", multiple=True, metavar="TEST", help="Run only this RiMEA test, by number (repeatable).")
-@click.option("--model", "models", multiple=True, type=click.Choice(["macro", "micro"]),
-              help="Run only this model (repeatable; default: both).")
+@click.option("--model", "models", multiple=True,
+              type=click.Choice(["macro", "macro-capacity", "macro-pushing", "macro-recommended", "micro",
+                                 "micro-recommended"]),
+              help="Run only this model and setting (repeatable; default: all). macro, micro: the paper's; "
+                   "-capacity: a capacity of 1.9 persons/(m s) on every door; -pushing: Weidmann's law with "
+                   "push 0.2; -recommended: the settings of docs/validation.md.")
 def rimea(out, only, models):
     """Run the RiMEA verification tests of cases/rimea with both models and print the table.
 
-    Tests 1 (corridor), 6 (corner), 9 (four doors, then two), 11 (exit
-    choice) and 12 (bottlenecks) of the RiMEA guideline, as docs/rimea.md
-    describes them: the criterion as RiMEA states it, the macro and the
-    disc model's result, pass or fail. A failed verdict is a result (the
-    docs say where a model cannot meet a criterion, and why), not an error.
+    Tests 1 (corridor), 4 (fundamental diagram), 6 (corner), 9 (four doors,
+    then two), 11 (exit choice) and 12 (bottlenecks) of the RiMEA guideline,
+    as docs/rimea.md describes them: the criterion as RiMEA states it, each
+    model and setting's result, pass or fail. A failed verdict is a result
+    (the docs say where a model cannot meet a criterion, and why), not an
+    error.
 
     \b
     Examples:
@@ -163,3 +168,50 @@ def rimea(out, only, models):
     failed = sum(not v.passed for _, verdicts in rows for v, _ in verdicts.values())
     click.echo(f"{len(rows)} tests, {failed} failed verdicts, in {time.perf_counter() - tic:.0f} s; "
                f"table: {Path(out) / 'rimea.md'}; runs: {out}/<case>-<model>")
+
+
+@main.command()
+@click.option("--out", type=click.Path(), default="validation-output", show_default=True,
+              help="Directory of the runs' table validation.csv, validation.md and validation.png, relative to "
+                   "the current directory.")
+@click.option("--settings", default=None, metavar="S1,S2,...",
+              help="Settings to run (default: all): paper, weidmann, pushing, capacity, discs-paper, discs.")
+@click.option("--widths", callback=_floats("--widths"), metavar="W1,W2,...",
+              help="Bottleneck widths in m (default: 0.5,0.8,1,1.2,1.6,2,2.4).")
+@click.option("--levels", type=click.IntRange(1, 5), default=3, show_default=True,
+              help="Meshes of the macro settings: the plan's and uniform refinements.")
+@click.option("--seeds", type=click.IntRange(1, 50), default=5, show_default=True,
+              help="Seeds of the disc settings.")
+@set_option
+@serial_option
+@scheduler_option
+@force_option
+def validate(out, settings, widths, levels, seeds, overrides, serial, scheduler, force):
+    """Flow through a bottleneck against its width, each model beside the experiments.
+
+    A crowd of 90 waits in front of a corridor 2 m long and 0.5 ... 2.4 m
+    wide; each setting (the paper's models, a speed law, door capacities,
+    arch-breaking discs) runs on three meshes or five seeds. Writes
+    validation.csv (every run), validation.md (specific flows, converged)
+    and validation.png (with the published experiments). docs/validation.md
+    shows the result; all settings take about an hour on 2 cores.
+
+    \b
+    --set changes a key in every run (after the setting's own keys), e.g.
+    another fluctuation of the discs.
+
+    \b
+    Examples:
+      femcrowd validate --settings pushing,capacity --widths 1.0 --levels 2 --out /tmp/validation
+      femcrowd validate --settings discs-paper --widths 0.5 --set micro.fluctuation=2.5 --out /tmp/discs
+      femcrowd validate
+    """
+    from ..studies import validation as va
+
+    tic = time.perf_counter()
+    chosen = tuple(s.strip() for s in settings.split(",")) if settings else tuple(va.SETTINGS)
+    table, text, root = va.validate(out, chosen, widths or va.WIDTHS, levels, seeds, overrides, serial, scheduler,
+                                    force, echo=click.echo)
+    click.echo("\n" + text)
+    click.echo(f"{len(table)} rows in {time.perf_counter() - tic:.0f} s; table: {root / 'validation.md'}, "
+               f"runs: {root / 'validation.csv'}, plot: {root / 'validation.png'}")

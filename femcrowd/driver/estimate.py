@@ -44,7 +44,7 @@ def estimate(model: MacroModel) -> dict:
     free = _median_seconds(lambda: transport.step(state.density, dt), TIMED_CALLS)
     projection = 0.0
     if crowd.any() and solver.needs_projection:   # (a speed law with f(1) = 0 never projects)
-        project = solver.projection(exits)[0]
+        project = solver.projection(exits)
         project(congested_input)  # cold start: builds the active set
         projection = _median_seconds(lambda: project(congested_input), 3)
     return {"dt": dt, "steps": steps, "frames": frames, "free_step_seconds": free,

@@ -45,6 +45,21 @@ def macro_columns(exit_names) -> list:
     ]
 
 
+def door_columns(doors) -> list:
+    """The columns of the doors with a capacity: the flow through each (persons per second) and the mean pressure
+    on it (p of its door nodes); the summary keeps, per door, its largest flow and pressure, the steps it spent
+    at capacity and its mean flow over them."""
+    columns = []
+    for door in doors:
+        entry = f"doors.{door.name}"
+        columns += [Column(f"flow_{door.name}", ((f"{entry}.max_flow", "max"),)),
+                    Column(f"door_pressure_{door.name}", ((f"{entry}.max_pressure", "max"),)),
+                    Column(f"at_capacity_{door.name}", ((f"{entry}.flow_at_capacity", "mean_finite"),
+                                                        (f"{entry}.steps_at_capacity", "count_finite")),
+                           history=False)]
+    return columns
+
+
 def population_columns(names) -> list:
     """The per-population columns of a run with several populations: mass_<name> and evacuated_<name> in
     history.csv, and per population in the summary its masses, smallest density and largest mass error."""
@@ -90,6 +105,8 @@ class MacroModel:
         self.stop_when_empty = case["time"]["stop_when_empty"] and bool(domain.exit_group)
         self.evacuation_time = None   # the first time with less than empty_mass inside (scenes with exits)
         self.columns = macro_columns(domain.exit_names)
+        self.doors = scene.boundary.capped
+        self.columns += door_columns(self.doors)
         self.several = len(populations) > 1   # per-population columns and arrays only then
         if self.several:
             self.initial_masses = self.state.rho @ domain.area
@@ -145,6 +162,8 @@ class MacroModel:
                    for name, v in zip(self.domain.exit_names, self.state.evacuated.sum(axis=0))}
         if self.sources is not None:
             by_exit.update(inflow=self.inflow * r, queued=self.sources.queued * r)
+        if self.doors:
+            by_exit.update(self._door_row(info))
         return {**by_exit, "time": self.state.t, "dt": info["dt"], "mass": d["mass"] * r,
                 "evacuated": d["evacuated"] * r, "max_density": d["max_density"] * r,
                 "saturated_area": d["saturated_area"], "max_pressure": d["max_pressure"],
@@ -153,6 +172,17 @@ class MacroModel:
                 "complementarity": d["complementarity"], "linear_residual": info["linear_residual"],
                 "mass_error": error, "pressure_unsaturated": d["pressure_unsaturated"],
                 "non_finite": d["non_finite"], **(self._population_row() if self.several else {})}
+
+    def _door_row(self, info) -> dict:
+        """flow_<door> (persons per second), door_pressure_<door> of each door with a capacity in the step of
+        info, and the step's seconds and people if the door was at capacity (to 1e-9 of it)."""
+        row, flows = {}, (info or {}).get("doors", {})
+        for door in self.doors:
+            flow, pressure = flows.get(door.name, (0.0, 0.0))
+            at_capacity = flow >= (1 - 1e-9) * door.capacity * door.width and flow > 0
+            row.update({f"flow_{door.name}": flow * self.rho_max, f"door_pressure_{door.name}": pressure,
+                        f"at_capacity_{door.name}": flow * self.rho_max if at_capacity else np.nan})
+        return row
 
     def _population_row(self) -> dict:
         """mass_<name>, evacuated_<name> (user unit), min_density_<name>, mass_error_<name> of each population."""
@@ -192,6 +222,7 @@ class MacroModel:
         """The state to continue from (a checkpoint): arrays and numbers."""
         st = self.state
         return {"rho": st.rho, "p": st.p, "evacuated": st.evacuated, "t": st.t, "steps": st.steps,
+                **({} if st.jump is None else {"jump": st.jump}),
                 "evacuation_time": np.nan if self.evacuation_time is None else self.evacuation_time,
                 **parts(sources=self.sources, measure=self.measurements)}
 
@@ -199,6 +230,7 @@ class MacroModel:
         """Continue from a snapshot."""
         st = self.state
         st.rho, st.p, st.evacuated = data["rho"].copy(), data["p"].copy(), data["evacuated"].copy()
+        st.jump = data["jump"].copy() if "jump" in data else st.jump
         st.t, st.steps = float(data["t"]), int(data["steps"])
         self.evacuation_time = None if np.isnan(data["evacuation_time"]) else float(data["evacuation_time"])
         restore_parts(data, sources=self.sources, measure=self.measurements)

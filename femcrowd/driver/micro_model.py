@@ -75,7 +75,8 @@ class MicroModel:
                                   self.population, [p.law for p in populations], spec["strategy"],
                                   View(spec["view_distance"], spec["view_angle"]))
         self.sim = MicroSimulation(q, r, exits.segments("wall"), exits.segments("exit"), desired, tau,
-                                   method=spec["method"])
+                                   method=spec["method"], fluctuation=spec["fluctuation"], seed=spec["seed"])
+        self.exits_time = 0.0   # a time at which the walls and exits of the discs are self.exits
         desired.sim = self.sim
         self.desired, self.initial_count = desired, len(q)
         self.columns = list(MICRO_COLUMNS)
@@ -114,7 +115,7 @@ class MicroModel:
         exits = self.boundary.at(sim.t)
         if exits is not self.exits:   # a door closed or opened: walls and exits follow
             sim.set_boundary(exits.segments("wall"), exits.segments("exit"))
-            self.exits = exits
+            self.exits, self.exits_time = exits, sim.t
         sim.tau = min(self.tau, until - sim.t)
         tic = time.perf_counter()
         if self.sources is not None:
@@ -179,11 +180,11 @@ class MicroModel:
         return disc_frame(self.last.q, self.last.r, self.last.u, self.last.pressure, extra)
 
     def snapshot(self) -> dict:
-        """The discs to continue from (a checkpoint); the candidate list and the multipliers are rebuilt."""
+        """The discs to continue from (a checkpoint), with their contact network and perturbations: a resumed
+        run continues bit for bit."""
         sim, last = self.sim, self.last
         pressure = last.pressure if last is not None else np.zeros(sim.count)
-        return {"q": sim.q, "r": sim.r, "ids": sim.ids, "u": sim.u, "pressure": pressure, "t": sim.t,
-                "steps": sim.nstep, "evacuated": sim.evacuated, "next_id": sim._next_id, "population": self.population,
+        return {**sim.state(), "pressure": pressure, "exits_time": self.exits_time, "population": self.population,
                 "evacuation_time": np.nan if self.evacuation_time is None else self.evacuation_time,
                 **parts(sources=self.sources, measure=self.measurements),
                 **({} if self.trajectories is None else {"trajectory_frame": self.trajectories.frame})}
@@ -191,8 +192,11 @@ class MicroModel:
     def restore(self, data: dict) -> None:
         """Continue from a snapshot."""
         sim = self.sim
-        sim.restart(data["q"], data["r"], data["ids"], data["u"], data["t"], data["steps"], data["evacuated"],
-                    data["next_id"])
+        exits = self.boundary.at(float(data["exits_time"]))   # the walls of the checkpoint's contact network
+        if exits is not self.exits:
+            sim.set_boundary(exits.segments("wall"), exits.segments("exit"))
+            self.exits, self.exits_time = exits, float(data["exits_time"])
+        sim.restore(data)
         self.desired.population = self.population = data["population"].copy()
         restore_parts(data, sources=self.sources, measure=self.measurements)
         self.resumed_frame = int(data["trajectory_frame"]) if "trajectory_frame" in data else None

@@ -20,7 +20,7 @@ from .scene import desired_velocity, initial_density
 #: the one population of a case without [populations]
 CROWD = "crowd"
 #: the keys of [velocity] that a population may override
-VELOCITY_KEYS = ("type", "speed", "speed_law", "ux", "uy")
+VELOCITY_KEYS = ("type", "speed", "speed_law", "push", "ux", "uy")
 
 
 @dataclass
@@ -37,7 +37,8 @@ def build_populations(case: Case, domain: Domain, boundary: Boundary) -> list:
     rho_max = case["model"]["rho_max"]
     if not case["populations"]:
         velocity = desired_velocity(case, domain, boundary)
-        return [Population(CROWD, velocity, SpeedLaw(case["velocity"]["speed_law"], rho_max))]
+        return [Population(CROWD, velocity, SpeedLaw(case["velocity"]["speed_law"], rho_max,
+                                                      case["velocity"]["push"]))]
     initial = case["initial"]
     if initial["density"] != 0.0 or initial["regions"]:
         key = "initial.density" if initial["density"] != 0.0 else "initial.regions"
@@ -60,7 +61,7 @@ def build_populations(case: Case, domain: Domain, boundary: Boundary) -> list:
                 raise InputError(case.file, f"{table}.exits", targets,
                                  f"{what} (boundary.exits: {', '.join(domain.exit_names) or 'none'})")
         velocity = desired_velocity(case, domain, boundary, merged, key, targets)
-        populations.append(Population(name, velocity, SpeedLaw(merged["speed_law"], rho_max)))
+        populations.append(Population(name, velocity, SpeedLaw(merged["speed_law"], rho_max, merged["push"])))
     return populations
 
 

@@ -20,6 +20,8 @@ REDUCTIONS = {
     "mean_over_steps": lambda v: np.mean(v[1:]) if len(v) > 1 else 0.0,
     "mean_positive": lambda v: np.mean(v[v > 0]) if np.any(v > 0) else 0.0,
     "count_positive": lambda v: np.count_nonzero(v > 0),
+    "mean_finite": lambda v: np.mean(v[np.isfinite(v)]) if np.any(np.isfinite(v)) else None,
+    "count_finite": lambda v: np.count_nonzero(np.isfinite(v)),
 }
 
 

@@ -5,6 +5,7 @@ Everything that can fail on bad input (mesh, exits, expressions, initial density
 checked here, before the output directory is touched, so a bad case never overwrites results.
 """
 
+import difflib
 import time
 from dataclasses import dataclass, field
 
@@ -43,7 +44,7 @@ def build_scene(case: Case) -> Scene:
     tic = time.perf_counter()
     domain = load_domain(case.path(case["mesh"]["file"]), case["boundary"]["exits"],
                          case["mesh"]["refine"], case.file)
-    boundary = Boundary(domain, door_schedule(case, domain))
+    boundary = Boundary(domain, door_schedule(case, domain), door_capacity(case, domain))
     sources = read_sources(case, domain)
     lines, areas = read_measurements(case, domain)
     toc = time.perf_counter()
@@ -61,6 +62,33 @@ def door_schedule(case: Case, domain: Domain) -> dict:
             raise InputError(case.file, f"boundary.open.{name}", spans, "is not an exit (boundary.exits: "
                              f"{', '.join(domain.exit_names) or 'none'})")
     return schedule
+
+
+#: the transports whose every stage is one explicit upwind step: a capped interior door gives back to the
+#: cell behind it at most what the step brought it (mesh/capacity.py)
+ONE_STAGE = ("upwind", "compressive")
+
+
+def door_capacity(case: Case, domain: Domain) -> dict:
+    """[boundary.capacity], its names checked against the mesh (an exit, or an interior line group), in units of
+    rho_max x m/s."""
+    capacity = case["boundary"]["capacity"]
+    for name, value in capacity.items():
+        key = f"boundary.capacity.{name}"
+        if name not in domain.groups:
+            close = difflib.get_close_matches(name, list(domain.groups), n=1)
+            hint = f"did you mean {close[0]!r}? " if close else ""
+            raise InputError(case.file, key, value, f"no line group of that name in the mesh ({hint}groups: "
+                             f"{', '.join(domain.groups) or 'none'})")
+        if name in domain.exit_group:
+            continue
+        if not np.all(domain.interior[domain.groups[name]]):
+            raise InputError(case.file, key, value, f"{name!r} has boundary edges but is not an exit: a door with a "
+                             "capacity is an exit (boundary.exits) or a line between two rooms")
+        if case["scheme"]["transport"] not in ONE_STAGE:
+            raise InputError(case.file, key, value, "a capacity on an interior door needs a one-stage transport "
+                             f"(scheme.transport = {' or '.join(map(repr, ONE_STAGE))})")
+    return {name: value / case["model"]["rho_max"] for name, value in capacity.items()}
 
 
 def desired_velocity(case: Case, domain: Domain, boundary: Boundary, spec=None, key=None,

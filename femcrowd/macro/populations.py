@@ -30,13 +30,13 @@ def split_correction(domain, exits, flux, rho_tilde: np.ndarray, total: np.ndarr
     rho~ (populations, cells), the PressureFlux of the projection and the corrected total density."""
     rho = rho_tilde.copy()
     evacuated = np.zeros((len(rho_tilde), len(exits.names)))
-    # the facets of the cells the correction touches (S and its neighbours): T_e (phi_K - phi_L) there
+    # the facets of the cells the correction touches (S and its neighbours): T_e (phi_K - phi_L - j_e) there
     n, touched = domain.ncells, flux.cells
     mark = np.zeros(len(domain.length), bool)
     mark[domain.mesh.t2f[:, touched]] = True
     facets = np.flatnonzero(mark)
     k0, k1 = domain.f2t[0][facets], domain.f2t[1][facets]
-    moved = exits.transmissibility[facets] * (flux.phi[k0] - np.where(k1 >= 0, flux.phi[k1], 0.0))
+    moved = flux.facet_flux(domain, exits, facets)
     keep = moved != 0
     if not keep.any():
         return rho, evacuated

@@ -18,19 +18,16 @@ def cell_mean(domain, G: np.ndarray, G1: np.ndarray | None = None) -> np.ndarray
     return out / domain.area[:, None]
 
 
-def pressure_velocity(domain, exits, p: np.ndarray) -> np.ndarray:
-    """-grad p per cell, reconstructed from the two-point fluxes G_e = T_e (p_K - p_L) (p_L = 0 across an
-    open exit, no flux through walls)."""
-    k0, k1 = domain.f2t
-    inner = domain.interior
-    p_far = np.where(inner, p[np.where(inner, k1, 0)], 0.0)
-    return cell_mean(domain, exits.transmissibility * (p[k0] - p_far))
+def pressure_velocity(domain, exits, p: np.ndarray, jump: np.ndarray = None) -> np.ndarray:
+    """-grad p per cell, reconstructed from the two-point fluxes G_e = T_e (p_K - p_L - j_e) (p_L = 0 across an
+    open exit, no flux through walls, j_e the pressure jump of a capped door facet)."""
+    return cell_mean(domain, exits.pressure_flux(p, jump))
 
 
-def actual_velocity(domain, exits, normal_velocity: np.ndarray, p: np.ndarray) -> np.ndarray:
+def actual_velocity(domain, exits, normal_velocity: np.ndarray, p: np.ndarray, jump: np.ndarray = None) -> np.ndarray:
     """u = U - grad p per cell from the facet fluxes |e| U.n (none through walls) plus the pressure
     fluxes. Hence u.n = 0 on walls and u = 0 where nothing moves (a closed saturated room);
     U(centroid) - grad p would be O(1) wrong there in the cells along the walls, whose U.n the
     scheme never transports."""
     flux = np.where(exits.wall, 0.0, normal_velocity) * domain.length
-    return cell_mean(domain, *flux) + pressure_velocity(domain, exits, p)
+    return cell_mean(domain, *flux) + pressure_velocity(domain, exits, p, jump)

@@ -68,14 +68,14 @@ class MacroSolver:
             self._transports = built = (exits, state.t, schemes)
         return built[2]
 
-    def projection(self, exits) -> tuple:
-        """The projection onto {rho <= 1} with these exits (Dirichlet) and the matrix (exits x cells)
-        of the pressure outflow through them, built once per set of open exits."""
+    def projection(self, exits) -> Projection:
+        """The projection onto {rho <= 1} with these doors (open exits Dirichlet, capacities as door nodes),
+        built once per set of open exits."""
         if exits.open not in self._projections:
-            projection = Projection(self.domain, exits, self.direct_max, self.tol, order=self.order)
-            self._projections[exits.open] = (projection, exits.outflow_matrix(exits.transmissibility))
+            self._projections[exits.open] = Projection(self.domain, exits, self.direct_max, self.tol,
+                                                       order=self.order)
         elif exits.open != self._open:   # back to a door state met before: its S and phi are stale
-            self._projections[exits.open][0].warm.forget()
+            self._projections[exits.open].warm.forget()
         self._open = exits.open
         return self._projections[exits.open]
 
@@ -111,24 +111,31 @@ class MacroSolver:
             hook(self, state, dt)
         rho_tilde = np.empty_like(state.rho)
         outflow = np.zeros_like(state.evacuated)
+        caps = exits.caps
+        through = np.zeros((len(schemes), 0 if caps is None else len(caps.facets)))
         for i, (scheme, seen) in enumerate(zip(schemes, self._seen(state, schemes))):
-            rho_tilde[i], outflow[i] = scheme.step(state.rho[i], dt, *seen)
+            rho_tilde[i], outflow[i], through[i] = scheme.step(state.rho[i], dt, *seen)
+        passed = None if caps is None else caps.limit(rho_tilde, outflow, through, dt, self.domain.area)
         toc = time.perf_counter()
         if self.needs_projection:
-            projection, pressure_outflow = self.projection(exits)
-            flux, info = projection(rho_tilde[0] if len(rho_tilde) == 1 else rho_tilde.sum(axis=0))
-            state.rho, pushed_out = self._correct(rho_tilde, flux, exits, pressure_outflow)
+            total = rho_tilde[0] if len(rho_tilde) == 1 else rho_tilde.sum(axis=0)
+            flux, info = self.projection(exits)(total, None if caps is None else caps.room(passed, dt))
+            state.rho, pushed_out = self._correct(rho_tilde, flux, exits)
             outflow += pushed_out
         else:
             empty = np.zeros(0, np.intp)
             flux, info = PressureFlux(np.zeros(self.domain.ncells), empty, np.zeros(0)), dict(NO_PROJECTION)
             state.rho = rho_tilde
         state.p = flux.phi / dt
+        if self.boundary.capped:
+            state.jump = flux.jump / dt if flux.jump is not None else np.zeros(len(self.domain.length))
         state.evacuated += outflow
         state.t = t_new
         state.steps += 1
         result = {"dt": dt, "active_set_iterations": info["iterations"], "linear_residual": info["linear_residual"],
                   "unknowns": info["unknowns"], "projection": info, "flux": flux}
+        if caps is not None:
+            result["doors"] = caps.report(passed, flux.facet_flux(self.domain, exits, caps.facets), flux.door, dt)
         for hook in self.after_step:
             hook(self, state, result)
         result["step_seconds"] = time.perf_counter() - tic
@@ -139,9 +146,14 @@ class MacroSolver:
     def facet_flux(self, state: MacroState, dt: float) -> np.ndarray:
         """The mass each facet carries f2t[0] -> f2t[1] in the coming prediction of all populations
         (measurement lines; their before-step hook calls it once the sources are added)."""
-        schemes = self.transports(state, self.boundary.at(state.t))
-        return sum(scheme.facet_flux(rho, dt, *seen)
+        exits = self.boundary.at(state.t)
+        schemes = self.transports(state, exits)
+        flux = sum(scheme.facet_flux(rho, dt, *seen)
                    for scheme, rho, seen in zip(schemes, state.rho, self._seen(state, schemes)))
+        if exits.caps is not None:   # the doors' cap of the step (mesh/capacity.py)
+            cap = exits.caps.rate * dt
+            flux[exits.caps.facets] = np.clip(flux[exits.caps.facets], -cap, cap)
+        return flux
 
     @staticmethod
     def _seen(state: MacroState, schemes):
@@ -150,11 +162,11 @@ class MacroSolver:
         total = (state.density,) if len(schemes) > 1 else ()
         return [total if isinstance(s, LWRTransport) else () for s in schemes]
 
-    def _correct(self, rho_tilde, flux, exits, pressure_outflow):
+    def _correct(self, rho_tilde, flux, exits):
         """rho^{n+1} and the mass the correction pushes out through each exit, per population: for one
         population rho~ - (A phi) / |K|; for several the implicit upwind split (populations.py)."""
         if len(rho_tilde) == 1:
-            return flux.apply(rho_tilde[0], self.domain.area)[None], (pressure_outflow @ flux.phi)[None]
+            return flux.apply(rho_tilde[0], self.domain.area)[None], exits.pressure_outflow(flux.phi, flux.jump)[None]
         total = flux.apply(rho_tilde.sum(axis=0), self.domain.area)
         return split_correction(self.domain, exits, flux, rho_tilde, total)
 
@@ -163,7 +175,8 @@ class MacroSolver:
         weighted by their shares of the cell's density)."""
         exits = self.boundary.at(state.t)
         if len(self.velocities) == 1 and self.laws[0] is None:
-            return actual_velocity(self.domain, exits, self.velocities[0].normal_on_facets(state, exits), state.p)
+            return actual_velocity(self.domain, exits, self.velocities[0].normal_on_facets(state, exits), state.p,
+                                   state.jump)
         rho = state.density
         with np.errstate(invalid="ignore", divide="ignore"):
             share = np.where(rho > 0, state.rho / rho, 1.0 / len(state.rho))
@@ -173,4 +186,4 @@ class MacroSolver:
         for i, (velocity, law) in enumerate(zip(self.velocities, self.laws)):
             weight = share[i] * (law(rho) if law is not None else 1.0)
             normal = normal + np.stack([weight[k] for k in sides]) * velocity.normal_on_facets(state, exits)
-        return actual_velocity(self.domain, exits, normal, state.p)
+        return actual_velocity(self.domain, exits, normal, state.p, state.jump)

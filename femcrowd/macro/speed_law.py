@@ -14,6 +14,13 @@ gamma = 1.913 m^-2, rho in persons/m^2 and rho_max = model.rho_max, 5.4 m^-2 in 
 fit; v0 is velocity.speed) or an expression in rho. A law is sampled once on [0, 1]: its
 range, monotonicity, the maximiser r* of g and whether g is unimodal (increasing, then
 decreasing), and its Lipschitz constant (for the CFL condition).
+
+A push p > 0 (``[velocity] push``) keeps f >= p: people in a jam still push towards the exits at
+p times their desired speed, so the density can exceed 1, the projection acts and its pressure moves
+the jam (docs/model.md, "A speed law whose door flow converges"). With f(1) = 0 a crowd whose
+directions meet at a point (the corner of a door, the end of a wall) jams there for good: the
+continuum LWR equation itself keeps it, and the mesh drains it only by numerical diffusion, so the
+flow through a door falls as the mesh is refined.
 """
 
 import numpy as np
@@ -38,10 +45,11 @@ class SpeedLaw:
     """f(rho) on [0, 1] (rho in units of rho_max): the factor of the desired speed, and the LWR flux
     g(r) = r f(r) with its demand and supply (Lebacque 1996) when g is unimodal."""
 
-    def __init__(self, spec, rho_max: float = 1.0):
+    def __init__(self, spec, rho_max: float = 1.0, push: float = 0.0):
         """spec: one of NAMES or an expression in rho; rho_max: the case's saturation density (persons/m^2
-        for "weidmann"). Raises LawError for a law outside [0, 1], not finite or increasing somewhere."""
-        self.spec = spec
+        for "weidmann"); push: the least f (people still push at push x their desired speed). Raises
+        LawError for a law outside [0, 1], not finite or increasing somewhere."""
+        self.spec, self.push = spec, push
         if spec == "constant":
             self._f = lambda r: np.ones_like(r)
         elif spec == "linear":
@@ -55,6 +63,9 @@ class SpeedLaw:
             except ExpressionError as err:
                 raise LawError(str(err)) from None
             self._f = lambda r: expression.of(rho=r)
+        if push > 0:
+            law = self._f
+            self._f = lambda r: np.maximum(law(r), push)
         r = np.linspace(0.0, 1.0, SAMPLES)
         with np.errstate(all="ignore"):
             f = self._f(r)

@@ -9,7 +9,9 @@ import numpy as np
 class MacroState:
     """rho: (populations, cells) densities in units of rho_max (one population: shape (1, cells));
     p: (cells,) the pressure of the last step; evacuated: (populations, exits) the mass that left
-    through each exit so far (exits in the order of the case's boundary.exits); t; steps taken."""
+    through each exit so far (exits in the order of the case's boundary.exits); t; steps taken;
+    jump: (facets,) the pressure jump across the capped door facets in the last step (None in a scene
+    without door capacities)."""
 
     rho: np.ndarray
     p: np.ndarray
@@ -17,6 +19,7 @@ class MacroState:
     t: float = 0.0
     steps: int = 0
     populations: tuple = field(default=("crowd",))
+    jump: np.ndarray = None
 
     @classmethod
     def initial(cls, rho0: np.ndarray, exits: int, populations=("crowd",)) -> "MacroState":

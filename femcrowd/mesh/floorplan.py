@@ -19,9 +19,14 @@ A floor plan, all lengths in metres; only ``[outer]`` is required::
     [[holes]]
     points = [[2, 2], [3, 2], [3, 3]]
 
-Exits split the edge they lie on. The mesh has one physical line group per
-exit name, "wall" for every other boundary curve (outer and holes) and the
-physical surface "domain". Triangles come from gmsh's Frontal-Delaunay
+    [[doors]]                       # a named interior line (a door between two rooms,
+    name = "door"                   # the entrance of a corridor): a straight segment
+    from = [6, 0]                   # inside the domain, its ends on the boundary or
+    to = [6, 6]                     # inside; a physical line group of interior edges
+
+Exits split the edge they lie on, and so do the ends of doors. The mesh has
+one physical line group per exit name and per door name, "wall" for every
+other boundary curve (outer and holes) and the physical surface "domain". Triangles come from gmsh's Frontal-Delaunay
 algorithm with a few smoothing passes: nearly equilateral and Delaunay (the
 two angles opposite an interior edge sum to at most pi), so the circumcentre
 distances used by the two-point flux are positive. They are also almost all
@@ -40,9 +45,10 @@ import numpy as np
 from ..errors import InputError
 
 KEYS = {
-    "": {"size", "outer", "exits", "holes"},
+    "": {"size", "outer", "exits", "holes", "doors"},
     "outer": {"points"},
     "exits": {"name", "from", "to", "size"},
+    "doors": {"name", "from", "to"},
     "holes": {"circle", "points"},
     "circle": {"center", "radius"},
 }
@@ -164,7 +170,8 @@ def _read(file):
 
     Returns size, the polygon loops (outer first, then polygon holes), the
     circle holes, the exits (edge index into the concatenated loops, t0, t1,
-    name, local size or None, length) and the length tolerance.
+    name, local size or None, length), the length tolerance and the doors
+    (from, to, name).
     """
     r = _Reader(file)
     try:
@@ -233,17 +240,49 @@ def _check(data, r):
                 raise r.error(key, ex, f"the exit overlaps exits[{m}]")
         h = r.size(f"{key}.size", ex["size"]) if "size" in ex else None
         exits.append((e, t0, t1, name, h, (t1 - t0) * np.linalg.norm(d[e])))
-    return size, loops, [h for h in holes if h[0] == "circle"], exits, tol
+    circles = [h for h in holes if h[0] == "circle"]
+    return size, loops, circles, exits, tol, _doors(data, r, loops, circles, {e[3] for e in exits}, tol)
 
 
-def _split(loops, exits, tol):
-    """Boundary loops split at the exit ends: [(points, labels, exit index or None per segment)]."""
+def _doors(data, r, loops, circles, exit_names, tol):
+    """The [[doors]]: straight segments inside the domain (ends on the boundary or inside), as (from, to, name)."""
+    a = np.concatenate([_edges(p)[0] for p in loops])
+    b = np.concatenate([_edges(p)[1] for p in loops])
+    doors = []
+    for k, door in enumerate(r.tables("doors", data.get("doors", []), "doors")):
+        key = f"doors[{k}]"
+        name = door.get("name")
+        if not isinstance(name, str) or not name or name in RESERVED or name in exit_names:
+            raise r.error(f"{key}.name", name, "expected a non-empty name other than wall, domain and the exits'")
+        ends = np.array([r.points(f"{key}.{s}", door.get(s), polygon=False) for s in ("from", "to")])
+        if np.linalg.norm(ends[1] - ends[0]) <= tol:
+            raise r.error(key, door, "the door has zero length")
+        # inside: no boundary edge crossed between the ends, the points of the segment inside the outer polygon
+        # and outside every hole
+        inner = ends[0] + np.array([[1e-3], [0.5], [1 - 1e-3]]) * (ends[1] - ends[0])
+        crossing = _meet(inner[:1], inner[2:], a, b, tol).any()
+        inside = _inside(inner, loops[0]).all() and not any(_inside(inner, h).any() for h in loops[1:])
+        direction = ends[1] - ends[0]
+        near = [np.clip((c - ends[0]) @ direction / (direction @ direction), 0, 1) for _, c, _ in circles]
+        hits = any(np.linalg.norm(c - ends[0] - t * direction) <= radius + tol
+                   for (_, c, radius), t in zip(circles, near))
+        if crossing or not inside or hits:
+            raise r.error(key, door, "the door must lie inside the domain (its ends on the boundary or inside)")
+        doors.append((ends[0], ends[1], name))
+    return doors
+
+
+def _split(loops, exits, tol, ends=np.zeros((0, 2))):
+    """Boundary loops split at the exit ends and at the points `ends` (the ends of doors) that lie on them:
+    [(points, labels, exit index or None per segment)]."""
     out, first = [], 0
     for p in loops:
         pts, labels, ids = [], [], []
         for i, (a, b) in enumerate(zip(*_edges(p))):
             mine = [(k, t0, t1) for k, (e, t0, t1, *_) in enumerate(exits) if e == first + i]
-            ts = np.unique([0.0, 1.0] + [t for _, t0, t1 in mine for t in (t0, t1)])
+            t = (ends - a) @ (b - a) / ((b - a) @ (b - a))
+            on = (np.linalg.norm(ends - a - t[:, None] * (b - a), axis=1) <= tol) & (t > 0) & (t < 1)
+            ts = np.unique([0.0, 1.0] + [t for _, t0, t1 in mine for t in (t0, t1)] + list(t[on]))
             ts = ts[np.r_[True, np.diff(ts) * np.linalg.norm(b - a) > tol]]
             ts[-1] = 1.0
             for s0, s1 in zip(ts[:-1], ts[1:]):
@@ -272,9 +311,9 @@ def build_mesh(geometry_file, out=None, refine_exits=None, gmsh_options=None, ca
     out = pathlib.Path(out) if out is not None else geometry_file.with_suffix(".msh")
     if geometry_file.suffix.lower() in (".dxf", ".wkt"):
         from .cad import read_plan
-        size, loops, circles, exits, tol = read_plan(geometry_file, **(cad or {}))
+        size, loops, circles, exits, tol, doors = read_plan(geometry_file, **(cad or {}))
     else:
-        size, loops, circles, exits, tol = _read(geometry_file)
+        size, loops, circles, exits, tol, doors = _read(geometry_file)
     if refine_exits is not None:
         refine_exits = _Reader(geometry_file).size("refine_exits", refine_exits)
     gmsh.initialize(readConfigFiles=False, interruptible=False)
@@ -283,8 +322,11 @@ def build_mesh(geometry_file, out=None, refine_exits=None, gmsh_options=None, ca
         gmsh.model.add(geometry_file.stem)
         geo = gmsh.model.geo
         curve_loops, groups, exit_curves = [], defaultdict(list), defaultdict(list)
-        for pts, labels, ids in _split(loops, exits, tol):
+        ends = np.array([end for door in doors for end in door[:2]]).reshape(-1, 2)
+        corners = []   # (x, y, tag) of the boundary points, where the doors' ends may join them
+        for pts, labels, ids in _split(loops, exits, tol, ends):
             tags = [geo.addPoint(x, y, 0) for x, y in pts]
+            corners += [(x, y, tag) for (x, y), tag in zip(pts, tags)]
             lines = [geo.addLine(s, e) for s, e in zip(tags, tags[1:] + tags[:1])]
             curve_loops.append(geo.addCurveLoop(lines))
             for line, label, k in zip(lines, labels, ids):
@@ -298,7 +340,15 @@ def build_mesh(geometry_file, out=None, refine_exits=None, gmsh_options=None, ca
             curve_loops.append(geo.addCurveLoop(arcs))
             groups["wall"] += arcs
         surface = geo.addPlaneSurface(curve_loops)
+        door_lines = []
+        for start, end, name in doors:
+            tags = [next((tag for x, y, tag in corners if np.hypot(x - p[0], y - p[1]) <= tol), None)
+                    or geo.addPoint(p[0], p[1], 0) for p in (start, end)]
+            door_lines.append(geo.addLine(*tags))
+            groups[name].append(door_lines[-1])
         geo.synchronize()
+        if door_lines:
+            gmsh.model.mesh.embed(1, door_lines, 2, surface)
         for name, curves in groups.items():
             gmsh.model.addPhysicalGroup(1, curves, name=name)
         gmsh.model.addPhysicalGroup(2, [surface], name="domain")

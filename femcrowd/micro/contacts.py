@@ -351,6 +351,19 @@ class CandidateList:
         else:
             self.wi = self.ws = np.zeros(0, np.intp)
 
+    @classmethod
+    def from_arrays(cls, q_ref, skin, nwalls, pi, pj, wi, ws) -> "CandidateList":
+        """A list as it was built (a checkpoint's: :meth:`arrays`), with its rows in the same order."""
+        cl = cls.__new__(cls)
+        cl.q_ref, cl.skin, cl.nwalls = np.array(q_ref, float).reshape(-1, 2), float(skin), int(nwalls)
+        cl.pi, cl.pj, cl.wi, cl.ws = (np.array(a, np.intp) for a in (pi, pj, wi, ws))
+        return cl
+
+    def arrays(self) -> dict:
+        """The list as arrays, the arguments of :meth:`from_arrays`."""
+        return {"q_ref": self.q_ref, "skin": self.skin, "nwalls": self.nwalls, "pi": self.pi, "pj": self.pj,
+                "wi": self.wi, "ws": self.ws}
+
     @property
     def m(self):
         return len(self.pi) + len(self.wi)

@@ -91,3 +91,22 @@ class ContactNetwork:
     @property
     def candidates(self) -> int:
         return 0 if self.cl is None else self.cl.m
+
+    def state(self) -> dict:
+        """Everything the next steps depend on, as arrays (a checkpoint): the list (its reference centres,
+        skin and rows, in their order), the multipliers and the kept factorisation pattern. A network
+        rebuilt instead would give other rows, another warm start and another elimination order, hence
+        another round-off, and a jam amplifies round-off (docs/micro.md, "Resuming a run")."""
+        out = {"lam": self.lam, **{f"pattern.{k}": v for k, v in self.pattern.state().items()}}
+        if self.cl is not None:
+            out.update({"base_skin": self.base_skin, **{f"cl.{k}": v for k, v in self.cl.arrays().items()}})
+        return out
+
+    def restore(self, state: dict) -> None:
+        """Continue from :meth:`state` (the walls are this network's: those of the same time)."""
+        self.reset()
+        if "cl.q_ref" in state:
+            self.cl = CandidateList.from_arrays(**{k[3:]: v for k, v in state.items() if k.startswith("cl.")})
+            self.base_skin = float(state["base_skin"])
+        self.lam = np.array(state["lam"], float)
+        self.pattern.restore({k[8:]: v for k, v in state.items() if k.startswith("pattern.")})

@@ -210,7 +210,31 @@ class NewtonPattern:
         self.off = rank[3 * n:].reshape(4, -1).T                   # (pairs, 4) positions
         self.identity = np.zeros(len(order))                      # the I of I + B^T diag(w) B
         self.identity[self.diag[:, [0, 2]].ravel()] = 1.0
+        self.entries = np.stack([rows[order], cols[order]])      # what the analysis was made of (a checkpoint)
         self.fact = Cholesky(rows[order], cols[order], 2 * n, supernodal=2, print=0) if n else None
+
+    #: the arrays of a kept pattern (:meth:`state`)
+    STATE = ("keys", "discs", "where", "diag", "off", "identity", "entries")
+
+    def state(self) -> dict:
+        """The kept analysis as arrays (a checkpoint): with :meth:`restore` a resumed run factorises in
+        the same order as the uninterrupted one, hence the same round-off."""
+        if self.keys is None:
+            return {"N": -1}
+        return {"N": self.N, "analyses": self.analyses, **{k: getattr(self, k) for k in self.STATE}}
+
+    def restore(self, state: dict) -> None:
+        """The analysis of :meth:`state` (made again from the same entries: CHOLMOD's analysis of one pattern
+        is deterministic)."""
+        self.forget()
+        if int(state["N"]) < 0:
+            return
+        for k in self.STATE:
+            setattr(self, k, np.array(state[k]))
+        self.N, self.analyses = int(state["N"]), int(state["analyses"])
+        rows, cols = self.entries
+        n = len(self.diag)
+        self.fact = Cholesky(rows, cols, 2 * n, supernodal=2, print=0) if n else None
 
 
 def _contains(sorted_keys, keys) -> bool:

@@ -14,6 +14,12 @@ allows). Negative gaps (round-off, or overlapping input) enter clipped at
 -1e-3 min(r): a small overlap is removed at the next step, a large one is
 reduced step by step, and the QP stays feasible.
 
+With ``fluctuation`` > 0 the projected velocity is U + xi, xi a seeded
+Ornstein-Uhlenbeck perturbation per disc (:mod:`femcrowd.micro.fluctuation`),
+advanced after each step by its exact transition over the step: the arches
+of rigid discs at narrow doors break (docs/micro.md, "Arch-breaking
+fluctuation"). With the default 0 nothing changes.
+
 Discs whose centre crosses an exit segment during the step are removed and
 counted as evacuated. :func:`run` yields one :class:`StepInfo` per step so
 that output can be plugged in by the caller.
@@ -28,6 +34,7 @@ from typing import Callable, Iterator
 import numpy as np
 
 from .contacts import WallSet, as_segments, merge_collinear
+from .fluctuation import FLUCTUATION_TIME, Fluctuation
 from .network import ContactNetwork
 from .projection import project
 
@@ -126,6 +133,10 @@ class MicroSimulation:
     skin : Verlet-list skin (default: 6 tau max|U| at the first step, at
         least half the mean radius).
     tol : relative KKT tolerance of the projection.
+    fluctuation : stationary standard deviation (m/s, per component) of the
+        random perturbation xi of each disc's desired velocity (0: none, the
+        discs of Maury and Venel); fluctuation_time: its correlation time (s);
+        seed: the seed of its random numbers (:class:`Fluctuation`).
     """
 
     def __init__(
@@ -143,6 +154,9 @@ class MicroSimulation:
         tol: float = 1e-12,
         max_iter: int | None = None,
         ids=None,
+        fluctuation: float = 0.0,
+        fluctuation_time: float = FLUCTUATION_TIME,
+        seed: int | None = 1,
     ):
         q = np.array(q, dtype=float).reshape(-1, 2)
         r = np.broadcast_to(np.asarray(r, dtype=float), (len(q),)).copy()
@@ -168,6 +182,8 @@ class MicroSimulation:
         self._recover = 1e-3 * float(r.min()) if len(r) else 0.0
         self._next_id = int(self.ids.max()) + 1 if len(self.ids) else 0   # the id of the next disc added
         self.moved_to = q               # the centres after the last move, before the discs that left are removed
+        # the perturbations of the desired velocities (None: the discs of Maury and Venel, no random numbers)
+        self.fluctuation = Fluctuation(fluctuation, len(q), seed, fluctuation_time) if fluctuation > 0 else None
 
     def set_boundary(self, walls, exits) -> None:
         """New walls and exits (a door that closed or opened); the candidate list is rebuilt at the next step."""
@@ -184,6 +200,8 @@ class MicroSimulation:
         self.ids = np.concatenate([self.ids, np.arange(first, first + len(q))])
         self._next_id = first + len(q)
         self.u = np.concatenate([self.u, np.zeros_like(q)])
+        if self.fluctuation is not None:
+            self.fluctuation.add(len(q))
         self.contacts.reset()
         self._recover = self._recover or 1e-3 * float(r.min())
 
@@ -202,11 +220,33 @@ class MicroSimulation:
         return U
 
     def restart(self, q, r, ids, u, t: float, nstep: int, evacuated: int, next_id: int) -> None:
-        """Continue from given discs (a checkpoint): the candidate list and the multipliers are rebuilt."""
+        """Continue from given discs: the candidate list and the multipliers are rebuilt (a resumed run
+        continues bit for bit only with :meth:`state` and :meth:`restore`)."""
         self.q, self.r, self.ids, self.u = (np.array(a) for a in (q, r, ids, u))
         self.t, self.nstep, self.evacuated, self._next_id = float(t), int(nstep), int(evacuated), int(next_id)
         self.moved_to = self.q
         self.contacts.reset()
+
+    def state(self) -> dict:
+        """Everything the next steps depend on, as arrays and numbers (a checkpoint): the discs, and what
+        carries over from step to step, the contact network (candidate list, multipliers, factorisation
+        pattern) and the perturbations with their random generator. :meth:`restore` continues exactly as
+        this simulation would have (docs/micro.md, "Resuming a run")."""
+        out = {"q": self.q, "r": self.r, "ids": self.ids, "u": self.u, "t": self.t, "steps": self.nstep,
+               "evacuated": self.evacuated, "next_id": self._next_id, "recover": self._recover,
+               **{f"contacts.{k}": v for k, v in self.contacts.state().items()}}
+        if self.fluctuation is not None:
+            out.update({f"fluctuation.{k}": v for k, v in self.fluctuation.state().items()})
+        return out
+
+    def restore(self, state: dict) -> None:
+        """Continue from :meth:`state` (of a simulation of the same discs, walls and exits, set up alike)."""
+        self.restart(state["q"], state["r"], state["ids"], state["u"], state["t"], state["steps"],
+                     state["evacuated"], state["next_id"])
+        self._recover = float(state["recover"])
+        self.contacts.restore({k[9:]: v for k, v in state.items() if k.startswith("contacts.")})
+        if self.fluctuation is not None:
+            self.fluctuation.restore({k[12:]: v for k, v in state.items() if k.startswith("fluctuation.")})
 
     # ------------------------------------------------------------------
     def step(self) -> StepInfo:
@@ -215,6 +255,8 @@ class MicroSimulation:
         tau = self.tau
         N = self.count
         U = self.desired_velocity() if N else np.zeros((0, 2))
+        if self.fluctuation is not None and N:
+            U = U + self.fluctuation.xi
         rebuilds = 0
         if N:
             net = self.contacts
@@ -254,7 +296,11 @@ class MicroSimulation:
             self.contacts.remove(keep)
             self.q, self.r, self.ids = self.q[keep], self.r[keep], self.ids[keep]
             self.u, pressure = self.u[keep], pressure[keep]
+            if self.fluctuation is not None:
+                self.fluctuation.keep(keep)
             self.evacuated += ngone
+        if self.fluctuation is not None:
+            self.fluctuation.advance(tau)   # to the end of the step: the next step's perturbations
         # gaps at the new configuration: diagnostics and next step's constraints
         max_overlap, overlap_r = self.contacts.overlaps(self.q, self.r)
         self.t += tau

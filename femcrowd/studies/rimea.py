@@ -2,10 +2,11 @@
 
 RiMEA e.V., "Guideline for Microscopic Evacuation Analysis", version 3.0 (2016) and later: each test states
 a scene and the result a model must show. The cases are ``cases/rimea/<test>`` (geometries as in
-JuPedSim's RiMEA tests, Juelich Supercomputing Centre); each runs with the density model and, with
-``model.type = "micro"``, with the disc model (radius 0.23 m: pi r^2 / hexagonal packing = 1 / 5.4 m^2,
-so that a disc is one person at the saturation density rho_max = 5.4 persons/m^2). Each test judges
-what a user reads from the run: history, summary, measurements.csv.
+JuPedSim's RiMEA tests, Juelich Supercomputing Centre); each runs with every variant of the models
+(:data:`VARIANTS`): the paper's density model and its discs (radius 0.23 m: pi r^2 / hexagonal packing =
+1 / 5.4 m^2, so that a disc is one person at the saturation density rho_max = 5.4 persons/m^2), and the
+settings docs/validation.md recommends for realistic door flows (door capacities, a speed law that pushes,
+arch-breaking discs). Each test judges what a user reads from the run: history, summary, measurements.csv.
 """
 
 import time
@@ -17,10 +18,37 @@ import numpy as np
 
 from ..case import load_case
 from ..driver import Simulation
+from .recommended import DISCS, DOOR_CAPACITY, FLUCTUATION, PUSH, SPEED, door_capacity
 
 #: the cases of a source checkout
 CASES = Path(__file__).resolve().parents[2] / "cases" / "rimea"
-MODELS = ("macro", "micro")
+
+
+@dataclass(frozen=True)
+class Variant:
+    """A column of the table: a model and its settings, as case overrides. ``doors``: whether every door of the
+    test (its exits and its interior doors) gets the capacity DOOR_CAPACITY."""
+
+    label: str
+    overrides: dict
+    doors: bool = False
+
+    @property
+    def micro(self) -> bool:
+        return self.overrides.get("model.type") == "micro"
+
+
+VARIANTS = {
+    "macro": Variant("macro (the paper's)", {}),
+    "macro-capacity": Variant(f"macro, doors {DOOR_CAPACITY:g} /(m s)", {}, doors=True),
+    "macro-pushing": Variant(f"macro, Weidmann, push {PUSH:g}", SPEED),
+    "macro-recommended": Variant(f"macro, Weidmann, push {PUSH:g}, doors {DOOR_CAPACITY:g} /(m s) (recommended)",
+                                 SPEED, doors=True),
+    "micro": Variant("discs (the paper's)", {"model.type": "micro"}),
+    "micro-recommended": Variant(f"discs, Weidmann, push {PUSH:g}, decelerating, fluctuation {FLUCTUATION:g} m/s "
+                                 "(recommended)", {"model.type": "micro", **DISCS}),
+}
+MODELS = tuple(VARIANTS)
 
 
 @dataclass
@@ -34,14 +62,18 @@ class Verdict:
 @dataclass
 class RimeaTest:
     """A RiMEA test: its number and title, the criterion as RiMEA states it (and how it is judged here),
-    its cases and the judge of their results (one per case, in order)."""
+    its cases (names, or (name, overrides) pairs) and the judge of their results (one per case, in order);
+    ``micro``: overrides of the disc runs; ``doors``: the interior doors of its floor plan (a capacity in
+    the variants with door capacities); ``variants``: those it runs with (None: all)."""
 
     number: str
     title: str
     criterion: str
     cases: tuple
     judge: Callable
-    micro: dict = None   # overrides of the disc runs
+    micro: dict = None
+    doors: tuple = ()
+    variants: tuple = None
 
 
 def crossing_time(m: dict, line: str, count: float) -> float:
@@ -79,6 +111,28 @@ def corner(results) -> Verdict:
         return Verdict(f"{out:.2f} of {n:.2f} out, mass error {leak:.0e}", out >= n - 0.01 and leak < 1e-10)
     outside = int(r.summary["discs_outside"])
     return Verdict(f"{out:.0f} of {n:.0f} out, {outside} discs outside", out == n and outside == 0)
+
+
+#: test 4: the densities of the corridor (persons/m^2), and how far from Weidmann's speed a measured one may be
+DENSITIES = (0.5, 1.0, 2.0, 3.0, 4.0, 5.0)
+WEIDMANN_TOLERANCE = 0.15   # m/s, up to 4 persons/m^2
+
+
+def weidmann_speed(density, free=1.34):
+    """Weidmann (1993): v = v0 (1 - exp(-1.913 (1/rho - 1/5.4))), m/s."""
+    return free * -np.expm1(-1.913 * (1.0 / density - 1.0 / 5.4))
+
+
+def fundamental_diagram(results) -> Verdict:
+    """Test 4: the mean speed in the measurement area after 5 s, for each density: falling as the density grows
+    (never rising), and within WEIDMANN_TOLERANCE of Weidmann's up to 4 persons/m^2."""
+    speeds = np.array([float(np.interp(5.0, r.measurements["time"], r.measurements["middle_speed"]))
+                       for r in results])
+    density = np.array(DENSITIES[:len(speeds)])
+    close = np.abs(speeds - weidmann_speed(density))[density <= 4.0].max()
+    value = ", ".join(f"{d:g}: {v:.2f}" for d, v in zip(density, speeds)) + " m/s"
+    falls = np.all(np.diff(speeds) <= 1e-9) and speeds[-1] < speeds[0]
+    return Verdict(value, bool(falls and close <= WEIDMANN_TOLERANCE))
 
 
 #: test 9: the space is empty when less than this fraction is inside (half a person of 1000: the last one left)
@@ -135,6 +189,10 @@ def bottlenecks(results) -> Verdict:
 TESTS = [
     RimeaTest("1", "speed in a corridor", "one person at 1.33 m/s covers 40 m in 26 s to 34 s",
               ("test01-corridor",), corridor),
+    RimeaTest("4", "fundamental diagram", "the speed in a corridor against the density (0.5 to 5 persons/m^2) "
+              "as the empirical diagram (judged: falling, within 0.15 m/s of Weidmann 1993 up to 4 persons/m^2)",
+              tuple(("test04-fundamental-diagram", {"initial.density": d}) for d in DENSITIES),
+              fundamental_diagram, variants=("macro", "macro-capacity", "macro-pushing", "macro-recommended")),
     RimeaTest("6", "movement around a corner", "20 persons go around a left corner without passing through "
               "walls (judged: all leave by the exit; macro: no mass lost, micro: no disc outside)",
               ("test06-corner",), corner),
@@ -146,7 +204,7 @@ TESTS = [
               ("test11-exit-choice",), exit_choice),
     RimeaTest("12", "effect of bottlenecks", "150 persons leave a room through a corridor into a second room; "
               "no congestion at the last exit (judged as JuPedSim: J_e >= J_b - 0.05 persons/s)",
-              ("test12-bottlenecks",), bottlenecks),
+              ("test12-bottlenecks",), bottlenecks, doors=("corridor",)),
 ]
 
 
@@ -159,23 +217,28 @@ def select(only=()) -> list:
     return [t for t in TESTS if not only or t.number in only]
 
 
-def run_test(test: RimeaTest, model: str, cases=CASES, out=None) -> tuple:
-    """Run a test's cases with one model (writing OUT/<case>-<model> when out is given); (Verdict, seconds)."""
+def run_test(test: RimeaTest, variant: str, cases=CASES, out=None) -> tuple:
+    """Run a test's cases with one variant (writing OUT/<case>-<variant> when out is given); (Verdict, seconds)."""
     tic = time.perf_counter()
-    results = []
-    for name in test.cases:
-        overrides = {"model.type": model, **((test.micro or {}) if model == "micro" else {})}
+    chosen, results = VARIANTS[variant], []
+    for k, entry in enumerate(test.cases):
+        name, own = (entry, {}) if isinstance(entry, str) else entry
+        overrides = {**chosen.overrides, **own, **((test.micro or {}) if chosen.micro else {})}
+        if chosen.doors:
+            overrides.update(door_capacity([*load_case(Path(cases) / name)["boundary"]["exits"], *test.doors]))
         case = load_case(Path(cases) / name, overrides)
-        target = Path(out) / f"{name}-{model}" if out is not None else None
+        suffix = "" if isinstance(entry, str) else f"-{k}"
+        target = Path(out) / f"{name}-{variant}{suffix}" if out is not None else None
         results.append(Simulation(case).run(target, force=True))
     return test.judge(results), time.perf_counter() - tic
 
 
 def run_all(only=(), models=MODELS, cases=CASES, out=None, echo=None) -> list:
-    """Every selected test with every model: rows (test, {model: (Verdict, seconds)})."""
+    """Every selected test with every variant in `models` it runs with: rows (test, {variant: (Verdict, seconds)})."""
     rows = []
     for test in select(only):
-        verdicts = {model: run_test(test, model, cases, out) for model in models}
+        verdicts = {variant: run_test(test, variant, cases, out) if test.variants is None or variant in test.variants
+                    else None for variant in models}
         rows.append((test, verdicts))
         if echo is not None:
             echo(format_row(test, verdicts))
@@ -183,16 +246,18 @@ def run_all(only=(), models=MODELS, cases=CASES, out=None, echo=None) -> list:
 
 
 def format_row(test: RimeaTest, verdicts: dict) -> str:
-    cells = [f"{v.value} ({'pass' if v.passed else 'FAIL'}, {s:.0f} s)" for v, s in verdicts.values()]
+    cells = ["not run" if v is None else f"{v[0].value} ({'pass' if v[0].passed else 'FAIL'}, {v[1]:.0f} s)"
+             for v in verdicts.values()]
     return f"{test.number:>3} {test.title:<30} " + " | ".join(cells)
 
 
 def table_markdown(rows) -> str:
     """The table of docs/rimea.md."""
-    models = list(rows[0][1]) if rows else list(MODELS)
-    lines = ["| test | criterion (RiMEA) | " + " | ".join(f"femcrowd {m}" for m in models) + " |",
-             "|---|---|" + "---|" * len(models)]
+    variants = list(rows[0][1]) if rows else list(MODELS)
+    lines = ["| test | criterion (RiMEA) | " + " | ".join(VARIANTS[v].label for v in variants) + " |",
+             "|---|---|" + "---|" * len(variants)]
     for test, verdicts in rows:
-        cells = [f"{v.value}: **{'pass' if v.passed else 'fail'}** ({s:.0f} s)" for v, s in verdicts.values()]
+        cells = ["not run" if v is None else f"{v[0].value}: **{'pass' if v[0].passed else 'fail'}** ({v[1]:.0f} s)"
+                 for v in verdicts.values()]
         lines.append(f"| {test.number} {test.title} | {test.criterion} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"

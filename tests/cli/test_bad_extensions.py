@@ -48,6 +48,15 @@ BAD = {
     "unknown micro strategy": (BASE + '\n[model]\ntype = "micro"\n\n[micro]\nstrategy = "overtake"\n', (),
                                "micro.strategy", "overtake", "expected one of 'push', 'decelerate', 'bypass'"),
     "view angle beyond 90": (BASE, ("micro.view_angle=120",), "micro.view_angle", "120", "must be in (0, 90]"),
+    "capacity not a table": (BASE, ("boundary.capacity=1.9",), "boundary.capacity", "1.9", "expected a table"),
+    "capacity of no door": (BASE, ("boundary.capacity={dor=1.9}",), "boundary.capacity.dor", "1.9",
+                            "did you mean 'door'"),
+    "capacity not positive": (BASE, ("boundary.capacity={exit=0}",), "boundary.capacity.exit", "0",
+                              "expected a capacity > 0"),
+    "capacity of a wall": (BASE, ("boundary.capacity={wall=1.3}",), "boundary.capacity.wall", "1.3",
+                           "has boundary edges but is not an exit"),
+    "interior door capacity with muscl": (BASE, ("boundary.capacity={door=1.3}", 'scheme.transport="muscl"'),
+                                          "boundary.capacity.door", "1.3", "needs a one-stage transport"),
 }
 
 

@@ -56,7 +56,8 @@ def test_counterflow_populations_cross():
 
 
 def test_bottleneck_weidmann_needs_no_projection():
-    case = load_case(CASES / "bottleneck", {"time.end": 20.0})
+    """cases/bottleneck with Weidmann's law as it is (no push, no door capacity): f(5.4) = 0, never projected."""
+    case = load_case(CASES / "bottleneck", {"time.end": 20.0, "velocity.push": 0.0, "boundary.capacity": {}})
     summary = Simulation(case).run().summary
     assert not summary["projection_needed"] and summary["active_set_iterations"]["max"] == 0
     assert summary["max_density_ever"] < case["model"]["rho_max"]

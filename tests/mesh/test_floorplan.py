@@ -6,6 +6,7 @@ import pytest
 import skfem
 
 from femcrowd.errors import InputError
+from femcrowd.mesh import read_mesh
 from femcrowd.mesh.floorplan import build_mesh
 
 from ..support import MESHES
@@ -119,7 +120,24 @@ BAD = {
     "hole_kind": ("[[holes]]\ncircle = { center = [5, 3], radius = 0.5 }\npoints = [[1,1],[2,1],[2,2]]",
                   "holes[0]", "exactly one"),
     "radius": ("[[holes]]\ncircle = { center = [5, 3], radius = 0 }", "holes[0].circle.radius", "positive"),
+    "door_outside": ('[[doors]]\nname = "d"\nfrom = [5, 0]\nto = [5, 8]', "doors[0]", "must lie inside the domain"),
+    "door_through_hole": ('[[holes]]\ncircle = { center = [5, 3], radius = 0.5 }\n'
+                          '[[doors]]\nname = "d"\nfrom = [5, 0]\nto = [5, 6]', "doors[0]", "must lie inside"),
+    "door_name": ('[[doors]]\nname = "wall"\nfrom = [5, 0]\nto = [5, 6]', "doors[0].name", "other than"),
+    "door_key": ('[[doors]]\nname = "d"\nfrom = [5, 0]\nto = [5, 6]\nsize = 0.1', "doors[0].size", "unknown key"),
 }
+
+
+def test_an_interior_door_is_a_line_group_of_interior_edges(tmp_path):
+    """A [[doors]] line across the room, its ends on the walls: a group of interior edges of its length, which a
+    uniform refinement keeps; the walls it ends on stay one group."""
+    path = build_mesh(write(tmp_path, ROOM + '[[doors]]\nname = "door"\nfrom = [6, 0]\nto = [6, 6]\n'))
+    m = read_mesh(path, "case.toml")
+    facets = m.boundaries["door"]
+    assert np.all(m.f2t[1, facets] >= 0) and lengths(m)["door"] == pytest.approx(6.0, rel=1e-12)
+    assert lengths(m.refined(1))["door"] == pytest.approx(6.0, rel=1e-12)
+    plain = read_mesh(build_mesh(write(tmp_path, ROOM, "plain.toml")), "case.toml")
+    assert lengths(m)["wall"] == pytest.approx(lengths(plain)["wall"], rel=1e-12)
 
 
 @pytest.mark.parametrize("case", BAD)

@@ -9,12 +9,13 @@ from femcrowd.studies import rimea
 
 
 def test_rimea_test_1_both_models_through_the_command(tmp_path):
-    """One person in the 40 m corridor: 40 / 1.33 = 30.1 s with either model (the macro crowd's middle
-    moves at U exactly, the disc walks freely)."""
+    """One person in the 40 m corridor: 40 / 1.33 = 30.1 s with either model of the paper (the macro crowd's
+    middle moves at U exactly, the disc walks freely); every other variant passes too."""
     result = CliRunner().invoke(main, ["rimea", "--only", "1", "--out", str(tmp_path)])
     assert result.exit_code == 0, result.output
     table = (tmp_path / "rimea.md").read_text()
-    assert table.count("30.1 s: **pass**") == 2, table
+    row = table.splitlines()[-1]
+    assert row.count("30.1 s: **pass**") >= 2 and row.count("**pass**") == len(rimea.VARIANTS), table
 
 
 def test_crossing_time_interpolates_the_count():

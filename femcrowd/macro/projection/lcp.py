@@ -41,13 +41,16 @@ class PressureFlux:
 
     ``outflow[i] = (A phi)_K`` for the cells K = ``cells[i]`` (S and its neighbours, A phi = 0
     elsewhere) is the net mass K sends across its facets in the step, the sum of the facet
-    fluxes T_e (phi_K - phi_L) (phi_L = 0 across an open exit): :meth:`facet_flux` gives
-    those, for a split of the correction among populations or a measurement line.
+    fluxes T_e (phi_K - phi_L - j_e) (phi_L = 0 across an open exit; j_e the pressure jump of a capped
+    door facet, ``jump``: None without capacities): :meth:`facet_flux` gives those, for a split of the
+    correction among populations or a measurement line. ``door``: the values of the door nodes.
     """
 
     phi: np.ndarray
     cells: np.ndarray
     outflow: np.ndarray
+    door: np.ndarray = None
+    jump: np.ndarray = None
 
     def apply(self, rho_tilde: np.ndarray, area: np.ndarray) -> np.ndarray:
         """rho = rho~ - (A phi) / |K|: mass moves between cells or leaves through the exits."""
@@ -55,36 +58,48 @@ class PressureFlux:
         rho[self.cells] -= self.outflow / area[self.cells]
         return rho
 
-    def facet_flux(self, domain, exits) -> np.ndarray:
-        """Mass moved across each facet in the step, f2t[0] -> f2t[1] (out of the domain through an exit)."""
-        k0, k1 = domain.f2t
-        far = np.where(domain.interior, self.phi[np.maximum(k1, 0)], 0.0)
-        return exits.transmissibility * (self.phi[k0] - far)
+    def facet_flux(self, domain, exits, facets=slice(None)) -> np.ndarray:
+        """Mass moved across each facet (of `facets`) in the step, f2t[0] -> f2t[1] (out of the domain through
+        an exit)."""
+        return exits.pressure_flux(self.phi, self.jump, facets)
 
 
 class Projection:
-    """Exact LCP projection on one set of open exits, warm-started from the previous step."""
+    """Exact LCP projection on one set of open doors, warm-started from the previous step.
+
+    With door capacities (``exits.caps``, mesh/capacity.py) the unknowns are the cells followed by the
+    door nodes: A is the Laplacian extended by their rows, and a door node's "area" (the scale of its
+    tolerance) is that of the cell it lets people out of."""
 
     def __init__(self, domain, exits, direct_max=1_000_000, tol=1e-12, max_iterations=None, reuse=True,
                  order=None):
-        self.A = exits.laplacian()
+        self.ncells, caps = domain.ncells, exits.caps
+        self.caps = caps
+        free = exits.exit.copy()   # the exit facets without a cap: Dirichlet links
+        if caps is None:
+            self.A, self.area, node_cell = exits.laplacian(), domain.area, None
+        else:
+            self.A = caps.extend(exits.laplacian())
+            self.area, node_cell = np.concatenate([domain.area, domain.area[caps.node_cell]]), caps.node_cell
+            free[caps.facets] = False
         self.A.sort_indices()
-        self.area = domain.area
         self.tol = tol
         self.direct_max = direct_max
-        has_exit = np.bincount(domain.f2t[0][exits.exit], minlength=domain.ncells) > 0
+        has_exit = np.bincount(domain.f2t[0][free], minlength=len(self.area)) > 0
         self.rooms = ClosedRooms(self.A, has_exit)
-        self.sets = CellSets(domain.ncells)
-        self.solver = SaturatedSolver(self.A, self.area, direct_max, order or CellOrder(), self.sets, reuse)
+        self.sets = CellSets(len(self.area))
+        self.solver = SaturatedSolver(self.A, self.area, direct_max, order or CellOrder(), self.sets, reuse,
+                                      node_cell)
         self.warm = WarmStart(self.A, self.area, tol, self.sets, self.solver, self.rooms.gauge)
         self.reuse = reuse
         # S grows by about one layer of cells per iteration, so a stiff front (rho ~ 0.999 running
         # into a wall: the saturated zone advances ~1/(1 - rho) cells per step) needs as many
         # iterations as the front crosses cells; the M-matrix bound is n + 1 (monotone iterates).
-        self.max_iterations = max_iterations or domain.ncells + 1
+        self.max_iterations = max_iterations or len(self.area) + 1
 
-    def __call__(self, rho_tilde: np.ndarray):
-        """Return (PressureFlux, info) for one correction step of the total density rho~.
+    def __call__(self, rho_tilde: np.ndarray, room: np.ndarray = None):
+        """Return (PressureFlux, info) for one correction step of the total density rho~ (room: what each door
+        node can still let through, Capacities.room; with door capacities only).
 
         info: iterations (active-set iterations, each with a solve on S to the tolerance, or a
         loose one on the AMG path), factorizations (numeric Cholesky factorisations among them),
@@ -94,14 +109,16 @@ class Projection:
         predictor), setup (numeric factorisations, AMG set-ups), solve and active_set (the rest).
         """
         tic = time.perf_counter()
-        b = self.area * (1.0 - rho_tilde)
+        b = self.area[:self.ncells] * (1.0 - rho_tilde)
         over = np.flatnonzero(b < 0)
+        if self.caps is not None:
+            b = np.concatenate([b, room])
         info = {"iterations": 0, "factorizations": 0, "band_solves": 0, "linear_residual": 0.0, "unknowns": 0,
                 "linear_iterations": 0, "rebuilds": 0, "predict": 0.0, "setup": 0.0, "solve": 0.0}
         if not over.size:
             self.warm.forget()
             info.update(detect=time.perf_counter() - tic, active_set=0.0)
-            return PressureFlux(np.zeros_like(b), np.zeros(0, np.intp), np.zeros(0)), info
+            return PressureFlux(np.zeros(self.ncells), np.zeros(0, np.intp), np.zeros(0)), info
         # cells that enter S wherever they are (w = b off the neighbourhood of S)
         strict = over[b[over] < -self.tol * self.area[over]]
         toc = time.perf_counter()
@@ -144,7 +161,10 @@ class Projection:
         info.update(iterations=iteration, unknowns=len(S))
         info["active_set"] = time.perf_counter() - tic - info["detect"] - info["predict"] - info["setup"] \
             - info["solve"]
-        return PressureFlux(phi, L, Aphi), info
+        if self.caps is None:
+            return PressureFlux(phi, L, Aphi), info
+        cells, door = L < self.ncells, phi[self.ncells:]
+        return PressureFlux(phi[:self.ncells], L[cells], Aphi[cells], door, self.caps.jumps(door)), info
 
     def _next(self, S, phi_S, w, strict, L, in_S, s_in_L):
         """The active-set update: S <- {phi >= 0 on S} U {w < 0 off S}, with w = b + A phi on L."""

@@ -27,31 +27,45 @@ class CellOrder:
     """Rank of every cell in a nested-dissection order of the cells' adjacency (METIS; Karypis, Kumar 1998),
     computed on first use and shared by the projections of every set of open exits (A's graph is the
     mesh's: the exits only change its diagonal). Restricted to an envelope it orders that envelope's
-    factorisation: the separators of the mesh, restricted to a subset of it, separate the subset."""
+    factorisation: the separators of the mesh, restricted to a subset of it, separate the subset.
+
+    The door nodes of capacities (appended after the cells) are ranked just before the cell they let
+    people out of: eliminating a leaf, or a node whose neighbours are already adjacent, makes no fill."""
 
     def __init__(self):
         self.rank = None
 
-    def __call__(self, A) -> np.ndarray:
+    def __call__(self, A, node_cell=None) -> np.ndarray:
+        """The rank of the unknowns of A: its cells, then the door nodes of node_cell (None: none)."""
+        ncells = A.shape[0] - (0 if node_cell is None else len(node_cell))
         if self.rank is None:
-            graph = A.copy()
+            graph = A[:ncells, :ncells] if node_cell is not None else A.copy()
             graph.setdiag(0.0)
             graph.eliminate_zeros()
             _, rank = pymetis.nested_dissection(pymetis.CSRAdjacency(graph.indptr, graph.indices))
             self.rank = np.asarray(rank, np.intp)
-        return self.rank
+        if node_cell is None:
+            return self.rank
+        key = np.concatenate([2 * self.rank + 1, 2 * self.rank[node_cell]])
+        rank = np.empty(len(key), np.intp)
+        rank[np.argsort(key, kind="stable")] = np.arange(len(key))
+        return rank
 
 
 class SaturatedSolver:
     """A_SS x = rhs on the saturated set S, with the kept EnvelopeCholesky or AMG Hierarchy."""
 
-    def __init__(self, A, area, direct_max: int, order: CellOrder, sets, reuse: bool = True):
+    def __init__(self, A, area, direct_max: int, order: CellOrder, sets, reuse: bool = True, node_cell=None):
         self.A, self.area, self.direct_max, self.order, self.sets, self.reuse = A, area, direct_max, order, sets, reuse
+        self.node_cell = node_cell   # the cells of the door nodes (capacities), None without
         self.factor = None      # the kept EnvelopeCholesky
         self.hierarchy = None   # the kept Hierarchy
+        self._rank = None
 
     def nested_dissection(self) -> np.ndarray:
-        return self.order(self.A)
+        if self._rank is None:
+            self._rank = self.order(self.A, self.node_cell)
+        return self._rank
 
     def solve(self, matrix, cells, rhs, x0, info, tol):
         """A_SS x = rhs on S = cells: factorised up to ``direct_max`` unknowns, else AMG + CG (on the

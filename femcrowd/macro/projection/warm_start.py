@@ -153,7 +153,7 @@ class WarmStart:
             # to the neighbours outside the set; a cell with none (second layer) passes to its others
             closed = np.bincount(row, out, len(front)) == 0
             receives = neighbour & (out | closed[row])
-            weight = np.where(receives, -rows.data, 0.0)
+            weight = np.where(receives, np.maximum(-rows.data, 0.0), 0.0)   # (+T_e beside an interior door node)
             total = np.bincount(row, weight, len(front))
             share = weight * (-level[front] / np.where(total > 0, total, 1.0))[row]
             np.subtract.at(level, rows.indices[receives], share[receives])

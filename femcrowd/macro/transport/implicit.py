@@ -20,7 +20,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .upwind import UpwindTransport
+from .upwind import Prediction, UpwindTransport
 
 #: the factorisations kept: the usual step and a shorter one (cut at a frame time)
 KEPT = 2
@@ -37,8 +37,9 @@ class ImplicitUpwindTransport(UpwindTransport):
         self.order = None if potential is None else np.argsort(-potential, kind="stable")
         self._factors = {}  # dt -> LU of the system, in self.order
 
-    def step(self, rho: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """rho~ and the mass that left through each exit during dt (at the new density)."""
+    def step(self, rho: np.ndarray, dt: float) -> Prediction:
+        """rho~, the mass that left through each exit during dt and the net mass through the capped door
+        facets (at the new density)."""
         lu = self._factors.get(dt) or self._factorise(dt)
         if self.order is None:
             rho_t = lu.solve(rho)
@@ -46,12 +47,12 @@ class ImplicitUpwindTransport(UpwindTransport):
             rho_t = np.empty_like(rho)
             rho_t[self.order] = lu.solve(rho[self.order])
         np.maximum(rho_t, 0.0, out=rho_t)  # the inverse is >= 0: only round-off is clipped
-        return rho_t, dt * (self.exit_rate @ rho_t)
+        return Prediction(rho_t, dt * (self.exit_rate @ rho_t), self._carried(rho_t, dt, self.capped))
 
     def facet_flux(self, rho: np.ndarray, dt: float) -> np.ndarray:
         """The mass each facet carries in the step of rho by dt: the upwind fluxes of the new density rho~
         (for measurement lines; it solves the step again, so step() keeps its cost when nobody measures)."""
-        return super().facet_flux(self.step(rho, dt)[0], dt)
+        return self._carried(self.step(rho, dt).rho, dt)
 
     def _factorise(self, dt):
         M = sp.identity(self.domain.ncells, format="csr") - sp.diags(dt / self.domain.area) @ self.flux

@@ -22,7 +22,7 @@ facet): with f(1) = 0 the density never exceeds 1 and the projection is never ne
 
 import numpy as np
 
-from .upwind import UpwindTransport
+from .upwind import Prediction, UpwindTransport
 
 
 class LWRTransport(UpwindTransport):
@@ -52,6 +52,11 @@ class LWRTransport(UpwindTransport):
         self.exit_of_flow = exits.group[f0[leaving[: len(f0)]]]
         self.n_exits = len(exits.names)
         self.out_rate = np.bincount(self.sender, self.rate, n)
+        # the flows across the capped door facets: their position among them, the sign along f2t[0] -> f2t[1]
+        position = np.full(len(self.out0), -1)
+        position[self.capped] = np.arange(len(self.capped))
+        self.capped_flows = np.flatnonzero(position[self.flow_facet] >= 0)
+        self.capped_position = position[self.flow_facet[self.capped_flows]]
         self.max_dt = joint_max_dt(domain, [self])
 
     def flows(self, rho, total=None):
@@ -68,8 +73,9 @@ class LWRTransport(UpwindTransport):
                 flux *= np.where(total[self.sender] > 0, rho[self.sender] / total[self.sender], 0.0)
         return flux * self.rate
 
-    def step(self, rho, dt, total=None):
-        """rho~ of this population and the mass that left through each exit during dt."""
+    def step(self, rho, dt, total=None) -> Prediction:
+        """rho~ of this population, the mass that left through each exit during dt and the net mass through
+        the capped door facets (capped by the doors: min(D, c, S), mesh/capacity.py)."""
         if dt > self.max_dt * (1 + 1e-12):
             raise ValueError(f"dt = {dt:.6g} exceeds the CFL limit {self.max_dt:.6g} of the LWR transport")
         flux = self.flows(rho, total)
@@ -78,7 +84,9 @@ class LWRTransport(UpwindTransport):
         rho_t = rho + (dt / self.domain.area) * net
         np.maximum(rho_t, 0.0, out=rho_t)   # round-off of order 1e-17 at the CFL limit
         evacuated = dt * np.bincount(self.exit_of_flow, flux[self.exit_flows], self.n_exits)
-        return rho_t, evacuated
+        through = dt * np.bincount(self.capped_position, self.flow_sign[self.capped_flows] * flux[self.capped_flows],
+                                   len(self.capped))
+        return Prediction(rho_t, evacuated, through)
 
     def facet_flux(self, rho, dt, total=None):
         """The mass each facet carries f2t[0] -> f2t[1] in the step of rho by dt (measurement lines)."""

@@ -4,7 +4,7 @@ SSP-RK2 (Shu, Osher 1988) or one Euler stage (anti-diffusive, in the spirit of D
 import numpy as np
 import scipy.sparse as sp
 
-from .upwind import UpwindTransport
+from .upwind import Prediction, UpwindTransport
 
 
 class MUSCLTransport(UpwindTransport):
@@ -91,12 +91,12 @@ class MUSCLTransport(UpwindTransport):
         f0, f1 = values[self.pos0], values[self.pos1]
         return self.out0 * f0 - self.out1 * f1, f0
 
-    def _euler(self, rho, dt):
-        """One forward-Euler stage with the limited facet values; (new rho, outflow per exit)."""
+    def _euler(self, rho, dt) -> Prediction:
+        """One forward-Euler stage with the limited facet values."""
         net, f0 = self._net(rho, dt)
         new = rho + (dt / self.domain.area) * (self.divergence @ net)
         np.maximum(new, 0.0, out=new)
-        return new, dt * (self.exit_flux @ f0)
+        return Prediction(new, dt * (self.exit_flux @ f0), dt * net[self.capped])
 
     def facet_flux(self, rho: np.ndarray, dt: float) -> np.ndarray:
         """The mass each facet carries in the step of rho by dt (the mean of the stages' fluxes), for
@@ -106,13 +106,14 @@ class MUSCLTransport(UpwindTransport):
             return dt * net
         return 0.5 * dt * (net + self._net(self._euler(rho, dt)[0], dt)[0])
 
-    def step(self, rho: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """rho~ (SSP-RK2, or one Euler stage) and the mass that left through each exit during dt."""
-        one, out1 = self._euler(rho, dt)
+    def step(self, rho: np.ndarray, dt: float) -> Prediction:
+        """rho~ (SSP-RK2, or one Euler stage), the mass that left through each exit during dt and the net
+        mass through the capped door facets (the mean of the stages')."""
+        one = self._euler(rho, dt)
         if self.stages == 1:
-            return one, out1
-        two, out2 = self._euler(one, dt)
-        return 0.5 * (rho + two), 0.5 * (out1 + out2)
+            return one
+        two = self._euler(one.rho, dt)
+        return Prediction(0.5 * (rho + two.rho), 0.5 * (one.outflow + two.outflow), 0.5 * (one.through + two.through))
 
 
 class CompressiveTransport(MUSCLTransport):

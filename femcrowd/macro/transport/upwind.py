@@ -17,8 +17,19 @@ rate = F rho), built once per steady U and set of open exits, so a step is
 one mat-vec.
 """
 
+from typing import NamedTuple
+
 import numpy as np
 import scipy.sparse as sp
+
+
+class Prediction(NamedTuple):
+    """A transport step: rho~, the mass that left through each exit (over exits.names), and the net mass
+    carried f2t[0] -> f2t[1] across each capped door facet (exits.caps.facets; empty without capacities)."""
+
+    rho: np.ndarray
+    outflow: np.ndarray
+    through: np.ndarray
 
 
 class UpwindTransport:
@@ -47,13 +58,15 @@ class UpwindTransport:
         self._diagonal = np.flatnonzero(self.flux.indices == np.repeat(cells, np.diff(self.flux.indptr)))
         self.exit_rate = exits.outflow_matrix(out0)  # outflow rate per exit
         self.out0, self.out1 = out0, out1
+        self.capped = exits.caps.facets if exits.caps is not None else np.zeros(0, np.intp)
         self._update, self._update_dt = None, None  # I + dt diag(1/|K|) F for the usual dt (see step)
         outflow = np.bincount(k0, out0, n) + np.bincount(k1[inner], out1[inner], n)
         with np.errstate(divide="ignore"):
             self.max_dt = float(np.min(domain.area / outflow))  # inf when nothing moves
 
-    def step(self, rho: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """rho~ and the mass that left through each exit during dt (array over exits.names).
+    def step(self, rho: np.ndarray, dt: float) -> Prediction:
+        """rho~, the mass that left through each exit during dt (array over exits.names) and the net mass
+        through the capped door facets (the cap itself is the doors', mesh/capacity.py).
 
         From its second step on (a time-dependent U makes a new transport every
         step), a step is one mat-vec with the update matrix B (see update_matrix),
@@ -79,13 +92,17 @@ class UpwindTransport:
                 rho_t -= rho
                 rho_t *= dt / self._update_dt
                 rho_t += rho
-        return rho_t, dt * (self.exit_rate @ rho)
+        return Prediction(rho_t, dt * (self.exit_rate @ rho), self._carried(rho, dt, self.capped))
 
     def facet_flux(self, rho: np.ndarray, dt: float) -> np.ndarray:
         """The mass each facet carries f2t[0] -> f2t[1] (out of the domain through an exit) in the step of
         rho by dt that step() makes (for measurement lines; step() does not compute it)."""
-        k0, k1 = self.domain.f2t
-        return dt * (self.out0 * rho[k0] - self.out1 * rho[np.maximum(k1, 0)])
+        return self._carried(rho, dt)
+
+    def _carried(self, rho, dt, facets=slice(None)):
+        """The upwind fluxes of rho across `facets` over dt, f2t[0] -> f2t[1]."""
+        k0, k1 = self.domain.f2t[0][facets], self.domain.f2t[1][facets]
+        return dt * (self.out0[facets] * rho[k0] - self.out1[facets] * rho[np.maximum(k1, 0)])
 
     def update_matrix(self, dt):
         """B = I + dt diag(1/|K|) F (CSR), rho~ = B rho, with its diagonal clipped at 0.

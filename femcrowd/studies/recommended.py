@@ -1,0 +1,27 @@
+"""The settings docs/validation.md recommends for realistic flows through doors, and where their values come from.
+
+- DOOR_CAPACITY (persons per metre per second, ``[boundary.capacity]`` on every door): the specific flow of
+  the bottleneck experiments at 1 to 1.2 m (Seyfried et al. 2009: 1.90 at 1.0 m, 1.97 at 1.2 m; Kretz et
+  al. 2006: 1.76 to 1.85 at 0.7 to 1.2 m; femcrowd/studies/experiments.csv).
+- PUSH (``[velocity] push``) with Weidmann's law (``speed_law = "weidmann"``, Weidmann 1993): the least
+  factor of the speed law, so that a jam still pushes toward the exits; 0.2 passes 1.9 persons/(m s)
+  through the 1 m bottleneck of ``femcrowd validate`` (converged on three meshes): calibrated there,
+  validated at the other widths.
+- The discs (``model.type = "micro"``, which has no door capacity): the same law and push from the density
+  each disc sees, the decelerating strategy of Maury et al. (2011) and an arch-breaking fluctuation
+  FLUCTUATION (m/s, docs/micro.md): the smallest of those tried (0.5, 1.0) that lets every disc of
+  radius 0.2 m through the 0.5 m and 1 m bottlenecks in each of five seeds.
+"""
+
+DOOR_CAPACITY = 1.9
+PUSH = 0.2
+FLUCTUATION = 0.5
+
+#: the overrides of the recommended settings, for either model (the capacity is per door: see door_capacity)
+SPEED = {"velocity.speed_law": "weidmann", "velocity.push": PUSH}
+DISCS = {**SPEED, "micro.strategy": "decelerate", "micro.fluctuation": FLUCTUATION}
+
+
+def door_capacity(doors) -> dict:
+    """The override giving every one of `doors` the recommended capacity."""
+    return {"boundary.capacity": {door: DOOR_CAPACITY for door in doors}}
