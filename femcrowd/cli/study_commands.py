@@ -175,7 +175,8 @@ def rimea(out, only, models):
               help="Directory of the runs' table validation.csv, validation.md and validation.png, relative to "
                    "the current directory.")
 @click.option("--settings", default=None, metavar="S1,S2,...",
-              help="Settings to run (default: all): paper, weidmann, pushing, capacity, discs-paper, discs.")
+              help="Settings to run (default: all): paper, weidmann, pushing, capacity, recommended, discs-paper, "
+                   "discs.")
 @click.option("--widths", callback=_floats("--widths"), metavar="W1,W2,...",
               help="Bottleneck widths in m (default: 0.5,0.8,1,1.2,1.6,2,2.4).")
 @click.option("--levels", type=click.IntRange(1, 5), default=3, show_default=True,
@@ -190,8 +191,9 @@ def validate(out, settings, widths, levels, seeds, overrides, serial, scheduler,
     """Flow through a bottleneck against its width, each model beside the experiments.
 
     A crowd of 90 waits in front of a corridor 2 m long and 0.5 ... 2.4 m
-    wide; each setting (the paper's models, a speed law, door capacities,
-    arch-breaking discs) runs on three meshes or five seeds. Writes
+    wide; each setting (the paper's models, a speed law that pushes, door
+    capacities, the recommended settings, arch-breaking discs) runs on three
+    meshes or five seeds. Writes
     validation.csv (every run), validation.md (specific flows, converged)
     and validation.png (with the published experiments). docs/validation.md
     shows the result; all settings take about an hour on 2 cores.

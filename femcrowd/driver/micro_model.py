@@ -7,6 +7,7 @@ facets. Time step: ``time.dt``, else tau = cfl * r_min / max|U| (a disc moves at
 radii per step).
 """
 
+import logging
 import time
 from types import SimpleNamespace
 
@@ -22,6 +23,8 @@ from .recorder import Column
 from .scene import Scene, initial_discs
 from .sources import MicroSources
 from .trajectories import TrajectoryFile
+
+log = logging.getLogger("femcrowd")
 
 MICRO_COLUMNS = [
     Column("time", (("final_time", "last"),)),
@@ -56,6 +59,9 @@ class MicroModel:
     def __init__(self, scene: Scene):
         case, domain, boundary = scene.case, scene.domain, scene.boundary
         self.domain, self.boundary = domain, boundary
+        if boundary.capped:
+            log.warning("%s: the disc model has no door capacity: [boundary.capacity] is not used (how many discs "
+                        "pass a door follows from the discs)", case.file)
         tic = time.perf_counter()
         exits = self.exits = boundary.at(0.0)
         rho = initial_densities(case, domain)

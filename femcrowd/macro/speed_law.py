@@ -86,6 +86,8 @@ class SpeedLaw:
         if self.unimodal:
             self.r_star = self._refine_maximum(self.r_star, 1.0 / (SAMPLES - 1))
         self.lipschitz = LIPSCHITZ_MARGIN * float(np.max(np.abs(np.diff(g))) * (SAMPLES - 1))
+        #: the Lipschitz constant of f itself (f(r) <= slope (1 - r) when f(1) = 0), sampled the same way
+        self.slope = LIPSCHITZ_MARGIN * float(np.max(np.abs(np.diff(f))) * (SAMPLES - 1))
 
     @property
     def constant(self) -> bool:

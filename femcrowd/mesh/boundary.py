@@ -147,7 +147,7 @@ class Boundary:
         self.changes = sorted({t for door in self.doors for span in door.spans or () for t in span
                                if np.isfinite(t)})
         # the open set on each interval [changes[k-1], changes[k]), sampled at a time inside it
-        self._states = [self.exits([door.name for door in self.doors if door.exit and door.is_open(t)])
+        self._states = [self.opening([door.name for door in self.doors if door.exit and door.is_open(t)])
                         for t in [0.0, *self.changes]]
 
     @property
@@ -155,7 +155,7 @@ class Boundary:
         """The doors with a capacity."""
         return [door for door in self.doors if door.capped]
 
-    def exits(self, open_names) -> Doors:
+    def opening(self, open_names) -> Doors:
         """The Doors object of a set of open exits (built once per set)."""
         key = frozenset(open_names)
         if key not in self._cache:

@@ -86,6 +86,11 @@ class Capacities:
         total[over] = sign * self.rate[over] * dt
         return total
 
+    def pairs(self, offset: int) -> tuple:
+        """(forward, back): the unknowns (door node + offset) of the two door nodes of each capped interior facet."""
+        back = np.flatnonzero(self.node_sign < 0)
+        return offset + self.node_facet[back], offset + back
+
     def room(self, passed: np.ndarray, dt: float) -> np.ndarray:
         """s = c |e| tau - F_e of each door node: what the door can still let through in its direction after
         the prediction's net flow `passed` (per capped facet, f2t[0] -> f2t[1])."""

@@ -176,14 +176,9 @@ def sample_discs(
             if len(pairs):
                 dist = np.linalg.norm(x[idx[pairs[:, 0]]] - x[idx[pairs[:, 1]]], axis=1)
                 pairs = pairs[dist < rc[idx[pairs[:, 0]]] + rc[idx[pairs[:, 1]]]]
-                # greedy in candidate order: a candidate survives unless an earlier survivor clashes
                 drop = np.zeros(len(idx), bool)
-                if len(pairs):
-                    lo, hi = np.minimum(pairs[:, 0], pairs[:, 1]), np.maximum(pairs[:, 0], pairs[:, 1])
-                    o = np.lexsort((lo, hi))
-                    lo, hi = lo[o], hi[o]
-                    # vectorised conservative pass: drop every later member of a clashing pair
-                    drop[hi] = True
+                if len(pairs):   # conservative: drop every later member of a clashing pair
+                    drop[np.maximum(pairs[:, 0], pairs[:, 1])] = True
                 ok[idx[drop]] = False
         idx = np.flatnonzero(ok)[:need]
         if len(idx):

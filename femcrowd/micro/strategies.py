@@ -28,8 +28,8 @@ vectorised over the pairs of discs within R (a KD-tree).
 import numpy as np
 from scipy.spatial import cKDTree
 
-#: the densest packing of equal discs: macro rho = 1 (docs/micro.md)
-PACKING = np.pi / (2 * np.sqrt(3))
+from .sampling import HEX_PACKING
+
 #: the directions a bypassing disc tries: 0, +-10, ..., +-90 degrees off its desired direction
 TURNS = np.radians(np.array([0.0, *[s * a for a in range(10, 91, 10) for s in (1, -1)]]))
 STRATEGIES = ("push", "decelerate", "bypass")
@@ -56,7 +56,7 @@ class View:
     def density(self, r, i, j, n):
         """The density each disc sees, in units of the packing density, clipped to [0, 1]."""
         covered = np.bincount(i, np.pi * r[j] ** 2, n)
-        return np.minimum(covered / (self.half_angle * self.distance ** 2) / PACKING, 1.0)
+        return np.minimum(covered / (self.half_angle * self.distance ** 2) / HEX_PACKING, 1.0)
 
 
 class DesiredVelocity:

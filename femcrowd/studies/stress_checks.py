@@ -35,9 +35,6 @@ def close(what, value, exact, tol):
     return Check(what, bool(abs(value - exact) <= tol), f"{value:.4g} vs {exact:.4g} (tol {tol:.2g})")
 
 
-@dataclass
-
-
 class Output:
     """A finished run as a user has it: summary, history columns, frames, and its mesh (Domain)."""
 
@@ -160,6 +157,26 @@ def saturated_exit(run):
             Check("still packed when half have left", bool(hist["max_density"][half] >= SATURATED * run.rho_max),
                   f"max rho {hist['max_density'][half]:.6g}"),
             Check("outflow > free flow v |door|", bool(rate > free), f"{rate:.3g} > {free:.3g}")]
+
+
+def capped_door(run, door="exit", full=True):
+    """A door at its capacity: it passes exactly capacity x width while full (and, full = True, at every step:
+    evacuated(t) = capacity x width x t), and pushes back (its door pressure > 0)."""
+    s, hist = run.summary, run.history
+    capacity = run.case["boundary"]["capacity"][door]
+    rate = capacity * run.domain.length[run.domain.groups[door]].sum()
+    entry = s["doors"][door]
+    checks = [close("mean flow while at capacity = capacity x width", entry["flow_at_capacity"] or 0.0, rate,
+                    1e-9 * rate),
+              Check("the door pushes back", entry["max_pressure"] > 0,
+                    f"max door pressure {entry['max_pressure']:.3g}")]
+    if full:
+        linear = float(np.abs(hist["evacuated"] - rate * hist["time"]).max())
+        checks += [Check("at capacity at every step", entry["steps_at_capacity"] == s["steps"],
+                         f"{entry['steps_at_capacity']} of {s['steps']} steps"),
+                   Check("evacuated(t) = capacity x width x t", linear <= 1e-9 * rate * hist["time"][-1],
+                         f"max deviation {linear:.1e}")]
+    return checks
 
 
 def door_one_edge(run):
@@ -290,4 +307,5 @@ CHECKS = {
     "slivers": slivers, "graded": graded, "long-run": long_run, "u-zero": u_zero,
     "u-into-walls": into_walls, "trapped": trapped, "cfl-one": saturated_evacuation,
     "expanding-block": expanding_block, "populations-head-on": populations_head_on,
+    "capped-saturated-room": capped_door, "capped-interior-door": lambda run: capped_door(run, "door", full=False),
 }

@@ -206,3 +206,14 @@ def test_a_run_with_a_capped_door_resumes(tmp_path):
         assert np.allclose(a[column], b[column], rtol=1e-9, atol=1e-12), column
     last = [read_frame(d / read_pvd(d / "solution.pvd")[-1][1]).cell_data for d in (whole, part)]
     assert np.allclose(last[0]["velocity"][0], last[1]["velocity"][0], rtol=0, atol=1e-9)
+
+
+def test_info_estimates_a_case_with_capacities():
+    """femcrowd info of cases/bottleneck (a capped exit): the estimate projects with the doors full."""
+    from click.testing import CliRunner
+
+    from femcrowd.cli import main
+
+    result = CliRunner().invoke(main, ["info", str(CASES / "bottleneck")])
+    assert result.exit_code == 0, result.output
+    assert "capacity = {exit = 1.9}" in result.output and "per congested step" in result.output

@@ -7,7 +7,8 @@ import pytest
 from femcrowd import Simulation, load_case
 from femcrowd.macro.speed_law import SpeedLaw
 from femcrowd.micro import MicroSimulation
-from femcrowd.micro.strategies import PACKING, DesiredVelocity, View
+from femcrowd.micro.sampling import HEX_PACKING as PACKING
+from femcrowd.micro.strategies import DesiredVelocity, View
 
 from ..support import CASES
 

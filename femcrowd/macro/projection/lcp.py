@@ -90,7 +90,10 @@ class Projection:
         self.sets = CellSets(len(self.area))
         self.solver = SaturatedSolver(self.A, self.area, direct_max, order or CellOrder(), self.sets, reuse,
                                       node_cell)
-        self.warm = WarmStart(self.A, self.area, tol, self.sets, self.solver, self.rooms.gauge)
+        # the two door nodes of a capped interior facet (forward, back): at most one of them in S
+        self.pairs = (np.zeros(0, np.intp),) * 2 if caps is None else caps.pairs(self.ncells)
+        self.warm = WarmStart(self.A, self.area, tol, self.sets, self.solver, self.rooms.gauge, self.ncells,
+                              predictor=not self.pairs[0].size)
         self.reuse = reuse
         # S grows by about one layer of cells per iteration, so a stiff front (rho ~ 0.999 running
         # into a wall: the saturated zone advances ~1/(1 - rho) cells per step) needs as many
@@ -99,7 +102,7 @@ class Projection:
 
     def __call__(self, rho_tilde: np.ndarray, room: np.ndarray = None):
         """Return (PressureFlux, info) for one correction step of the total density rho~ (room: what each door
-        node can still let through, Capacities.room; with door capacities only).
+        node can still let through, Capacities.room, with door capacities; default 0).
 
         info: iterations (active-set iterations, each with a solve on S to the tolerance, or a
         loose one on the AMG path), factorizations (numeric Cholesky factorisations among them),
@@ -111,8 +114,8 @@ class Projection:
         tic = time.perf_counter()
         b = self.area[:self.ncells] * (1.0 - rho_tilde)
         over = np.flatnonzero(b < 0)
-        if self.caps is not None:
-            b = np.concatenate([b, room])
+        if self.caps is not None:   # no room given: the doors are full (the prediction passed their capacity)
+            b = np.concatenate([b, np.zeros(self.caps.nodes) if room is None else room])
         info = {"iterations": 0, "factorizations": 0, "band_solves": 0, "linear_residual": 0.0, "unknowns": 0,
                 "linear_iterations": 0, "rebuilds": 0, "predict": 0.0, "setup": 0.0, "solve": 0.0}
         if not over.size:
@@ -178,7 +181,24 @@ class Projection:
         mark[L] = True
         far = strict[~mark[strict]]
         mark[L] = False
-        return self.sets.union(L[stay], far) if far.size else L[stay]
+        new = self.sets.union(L[stay], far) if far.size else L[stay]
+        return self._one_direction(new, S, L, w) if self.pairs[0].size else new
+
+    def _one_direction(self, new, S, L, w):
+        """A capped interior door is at capacity in one direction at most (both its door nodes in S would make
+        A_SS singular, and mean a flux both <= s and >= -s'): of two nodes of one facet in the new S, keep the
+        one that joins (the flow turned), or of two that join the one whose room is exceeded more."""
+        forward, back = self.pairs
+        inside = [np.isin(nodes, new, assume_unique=True) for nodes in (forward, back)]
+        both = inside[0] & inside[1]
+        if not both.any():
+            return new
+        forward, back = forward[both], back[both]
+        was = [np.isin(nodes, S, assume_unique=True) for nodes in (forward, back)]
+        w_at = lambda nodes: w[np.searchsorted(L, nodes)]   # noqa: E731  (both are in L: S and its neighbours)
+        drop = np.where(was[0] != was[1], np.where(was[0], forward, back),
+                        np.where(w_at(forward) > w_at(back), forward, back))
+        return new[~np.isin(new, drop, assume_unique=True)]
 
     def _solve(self, rows, S, col, in_S, rhs, x0, info, tol):
         """Solve A_SS phi_S = rhs; returns phi_S and the mask of the cells of S whose equation holds

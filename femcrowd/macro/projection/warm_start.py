@@ -35,8 +35,13 @@ PREDICT_MIN = 10_000
 class WarmStart:
     """The last step's S and phi, and the two ways of guessing the next ones from them."""
 
-    def __init__(self, A, area, tol, sets, solver, gauge):
+    def __init__(self, A, area, tol, sets, solver, gauge, cells=None, predictor=True):
+        """cells: the number of cells (the unknowns after them are the door nodes of capacities, which the
+        overflow is not spread to: they join S by the exact iterations); predictor: whether predict() may be
+        used (not with interior doors, whose two door nodes must not both be in S)."""
         self.A, self.area, self.tol, self.sets, self.solver, self.gauge = A, area, tol, sets, solver, gauge
+        self.cells = len(area) if cells is None else cells
+        self.predictor = predictor
         self.adjacent = adjacency_table(A)
         self.active = np.zeros(0, np.intp)  # S of the last step (sorted cells)
         self.phi_active = np.zeros(0)       # phi on it
@@ -48,7 +53,7 @@ class WarmStart:
         self.active, self.phi_active = np.zeros(0, np.intp), np.zeros(0)
 
     def can_predict(self) -> bool:
-        return len(self.active) >= PREDICT_MIN and self.solver.factor is not None
+        return self.predictor and len(self.active) >= PREDICT_MIN and self.solver.factor is not None
 
     def first_update(self, over, b, strict, next_set):
         """Without the predictor: S = the cells over 1 and the last S, phi carried over; when there was a
@@ -148,7 +153,7 @@ class WarmStart:
                 break
             rows = self.A[front]
             row = np.repeat(np.arange(len(front)), np.diff(rows.indptr))
-            neighbour = rows.indices != front[row]
+            neighbour = (rows.indices != front[row]) & (rows.indices < self.cells)
             out = ~inside[rows.indices]
             # to the neighbours outside the set; a cell with none (second layer) passes to its others
             closed = np.bincount(row, out, len(front)) == 0
