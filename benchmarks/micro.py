@@ -1,4 +1,4 @@
-"""Benchmark of the disc model: a room evacuation through one door, cost per jammed step (issue 15).
+"""Benchmark of the disc model: a room evacuation through one door, cost per jammed step.
 
     python benchmarks/micro.py                       # N = 2000 (20 x 20 room, 2 m door), 300 steps
     python benchmarks/micro.py --n 500 --steps 100

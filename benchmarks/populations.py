@@ -1,4 +1,4 @@
-"""Cost per step of k populations against one, on the benchmark hall of benchmarks/scale.py (issue 16).
+"""Cost per step of k populations against one, on the benchmark hall of benchmarks/scale.py.
 
 Scene: the 20 m x 15 m hall with a 2 m door in the wall x = 20, U towards the door at 1 m/s, crowd at
 density 1 within 7 m of the door and 0.85 elsewhere beyond x = 3 (a large saturated zone from the first

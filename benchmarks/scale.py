@@ -1,4 +1,4 @@
-"""Cost per step of the macro solver from 10^4 to 10^6 triangles (issue 6).
+"""Cost per step of the macro solver from 10^4 to 10^6 triangles.
 
 Scene: a 20 m x 15 m hall with a 2 m door in the middle of the wall x = 20,
 U = -grad d / |grad d| (distance to the door, unit speed), crowd at density 1

@@ -4,8 +4,8 @@ A source on the boundary group G with flow g (persons per metre per second, the 
 unit x m/s) between ``start`` and ``end`` brings g |e| |[t, t + dt] & [start, end]| into the
 queue of each facet e of G during a step. What fits enters the cell K behind e before the
 prediction, up to its room |K| (1 - rho_K) (shared in proportion to the queues of the facets
-of K); the rest waits outside and enters at a later step (docs/model.md, seed 002 sec. 6:
-"what cannot enter waits outside and is counted"). Hence, per step and exactly,
+of K); the rest waits outside and enters at a later step (docs/scenes.md, "People arriving": what
+cannot enter waits outside and is counted). Hence, per step and exactly,
 
     arrived = inflow + queued,   mass(t) + evacuated(t) = mass(0) + inflow(t).
 

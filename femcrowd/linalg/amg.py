@@ -22,10 +22,9 @@ def amg_hierarchy(K):
     """Ruge-Stuben hierarchy with the second pass of the C/F splitting, forward Gauss-Seidel before
     and backward after the coarse correction (a symmetric V-cycle).
 
-    Measured on the saturated zone of the benchmark hall (docs/performance.md): with pyamg's
-    default splitting CG needed 45 iterations at 3 10^4 unknowns and 101 at 3 10^5 (the clipped,
-    large transmissibilities of nearly cocircular pairs); with the second pass 18 and 19, for a
-    set-up 1.7x as long. One-sided sweeps are 30 % faster than the default symmetric ones.
+    The second pass keeps the CG iterations independent of the mesh size despite the clipped, large
+    transmissibilities of nearly cocircular pairs; one-sided sweeps are cheaper than symmetric ones
+    (the measurements: docs/performance.md).
     """
     return pyamg.ruge_stuben_solver(K, CF=("RS", {"second_pass": True}),
                                     presmoother=("gauss_seidel", {"sweep": "forward"}),
@@ -34,8 +33,8 @@ def amg_hierarchy(K):
 
 def vcycle(ml, b, level=0):
     """One V-cycle of a pyamg hierarchy from x = 0 (what ml.aspreconditioner() applies, without the
-    residual norms that pyamg computes with multithreaded BLAS: on a loaded 2-core machine those
-    dot products alone made CG 10x slower)."""
+    residual norms that pyamg computes with multithreaded BLAS, which spin on a loaded machine:
+    docs/performance.md, "Threads")."""
     lev = ml.levels[level]
     if level == len(ml.levels) - 1:
         return ml.coarse_solver(lev.A, b)

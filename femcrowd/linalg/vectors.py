@@ -2,7 +2,7 @@
 
 numpy's ``a @ b`` of two vectors calls BLAS's dot product, which OpenBLAS may run on several
 threads: for the vectors of one step (10^4-10^6 entries) that gains nothing, and with another
-process on the cores the threads spin (17 ms for 10^4 entries, docs/performance.md "Threads").
+process on the cores the threads spin (docs/performance.md, "Threads").
 ``einsum`` sums in numpy's own loop, on the calling thread.
 """
 

@@ -98,7 +98,7 @@ def project(
     gap_tol: float = 1e-7,
     pattern: NewtonPattern | None = None,
 ) -> ProjectionResult:
-    """Project U (N, 2) on {v : B v <= d} (seed 000 eq. 15-16).
+    """Project U (N, 2) on {v : B v <= d} (Maury 2014, eqs. 15-16).
 
     tol is relative to max(1, max|U|); lam0 warm-starts the multipliers.
     method "exact": warm-started semismooth Newton, exact to round-off; in a
@@ -151,7 +151,7 @@ def project(
 
 
 class NewtonPattern:
-    """The kept symbolic analysis of the Newton matrices I + B^T diag(w) B (issue 15).
+    """The kept symbolic analysis of the Newton matrices I + B^T diag(w) B.
 
     A pattern is a set of discs and of disc pairs (global indices); its fill-reducing order and
     supernodes are computed once and serve every projection whose rows fit in it: from step to step
@@ -543,7 +543,7 @@ def _ipm(C: Constraints, U, d, lam0, atol, max_iter, newton, gap_tol):
 
 
 # --------------------------------------------------------------------------
-# Uzawa (seed 000 eq. 17)
+# Uzawa (Maury 2014, eq. 17)
 # --------------------------------------------------------------------------
 
 

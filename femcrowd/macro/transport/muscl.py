@@ -25,8 +25,7 @@ class MUSCLTransport(UpwindTransport):
     """
 
     #: rho~ >= 0 holds up to max_dt; the local extremum diminishing property of limited
-    #: reconstructions with Euler stages needs half of it (measured: "compressive" at cfl 1.0
-    #: leaves cell-to-cell oscillations on the radial case, refine 4; none at 0.5)
+    #: reconstructions with Euler stages needs half of it (docs/convergence.md)
     max_cfl = 0.5
     stages = 2
 
