@@ -177,7 +177,7 @@ def long_run(target, transport, cfl, capacity=None):
     from femcrowd.driver.reading import read_history
 
     path = mesh_file(target)
-    case_dir = CACHE / f"long_{int(target)}_{transport}_{cfl:g}" + (f"_c{capacity:g}" if capacity else "")
+    case_dir = CACHE / (f"long_{int(target)}_{transport}_{cfl:g}" + (f"_c{capacity:g}" if capacity else ""))
     case_dir.mkdir(parents=True, exist_ok=True)
     (case_dir / "case.toml").write_text(
         f'title = "benchmark hall, {int(target)} triangles"\n[mesh]\nfile = "{path}"\n'

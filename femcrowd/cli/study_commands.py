@@ -165,7 +165,7 @@ def rimea(out, only, models):
     Path(out).mkdir(parents=True, exist_ok=True)
     (Path(out) / "rimea.md").write_text(table)
     click.echo("\n" + table)
-    failed = sum(not v.passed for _, verdicts in rows for v, _ in verdicts.values())
+    failed = sum(not v[0].passed for _, verdicts in rows for v in verdicts.values() if v is not None)
     click.echo(f"{len(rows)} tests, {failed} failed verdicts, in {time.perf_counter() - tic:.0f} s; "
                f"table: {Path(out) / 'rimea.md'}; runs: {out}/<case>-<model>")
 

@@ -211,19 +211,21 @@ def markdown(table) -> str:
 
 def plot(rows, table, path):
     """Specific flow against width: each setting's converged values (its coarser meshes or seeds as small
-    marks), the experiments as grey symbols per source."""
+    marks), the experiments at these widths as grey symbols per source."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(8, 5), layout="constrained")
+    widths = [r["width"] for r in table]
+    low, high = min(widths) - 0.25, max(widths) + 0.25
+    fig, ax = plt.subplots(figsize=(9, 7.5), layout="constrained")
     markers = iter("osD^v<>p*hX")
-    for source in dict.fromkeys(r["source"] for r in experiments()):
-        mine = [r for r in experiments() if r["source"] == source and r["width_m"] and r["kind"] == "measured"]
-        if mine:
-            ax.scatter([r["width_m"] for r in mine], [r["specific_flow"] for r in mine], marker=next(markers),
-                       s=22, color="0.55", label=f"{source} {mine[0]['year']}", zorder=1)
+    published = [r for r in experiments() if r["width_m"] and low <= r["width_m"] <= high and r["kind"] == "measured"]
+    for source in dict.fromkeys(r["source"] for r in published):
+        mine = [r for r in published if r["source"] == source]
+        ax.scatter([r["width_m"] for r in mine], [r["specific_flow"] for r in mine], marker=next(markers),
+                   s=24, color="0.6", label=f"{source} {mine[0]['year']}", zorder=1)
     for k, name in enumerate(dict.fromkeys(r["setting"] for r in table)):
         mine = [r for r in table if r["setting"] == name]
         ax.plot([r["width"] for r in mine], [r["specific_flow"] for r in mine], "o-", color=f"C{k}", lw=2,
@@ -232,9 +234,9 @@ def plot(rows, table, path):
         ax.scatter([r["width"] for r in runs], [r["specific_flow"] for r in runs], s=8, color=f"C{k}", alpha=0.5,
                    zorder=2)
     ax.set(xlabel="bottleneck width w (m)", ylabel="specific flow J / w (persons/(m s))", yscale="log",
-           title="Flow through a bottleneck: femcrowd and experiments")
+           xlim=(low, high), title="Flow through a bottleneck: femcrowd (lines) and experiments (grey)")
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=7, ncol=2)
+    fig.legend(loc="outside lower center", fontsize=7.5, ncol=2)
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
