@@ -5,7 +5,8 @@ Santambrogio 2010; docs/model.md).
     rho^{n+1} = projection of the total rho~ onto {rho <= 1}               (projection/, phi = tau p)
     u^{n+1}   = U - grad p                                                  (reconstruction.py, for output)
 
-on the exits open at t^n (mesh/boundary.py). Densities are in units of rho_max (rho = 1 is
+on the doors open at t^n (mesh/boundary.py): a door with a capacity caps the prediction and joins the
+projection as door nodes (mesh/capacity.py). Densities are in units of rho_max (rho = 1 is
 saturation); the driver converts to and from the user's unit. Hooks run before the prediction
 (sources) and after the correction (measurements).
 
