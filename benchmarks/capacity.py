@@ -20,16 +20,11 @@ free door.
 
 import argparse
 import json
-import math
-import os
-import subprocess
-import sys
 import tempfile
-import time
 from pathlib import Path
 
-import numpy as np
-from scale import DENSITY, mesh_file  # the hall of benchmarks/scale.py (this script's folder is on sys.path)
+from alternating import arguments, in_process, median, rounds, timed_steps  # this script's folder is on sys.path
+from scale import DENSITY, mesh_file  # the hall of benchmarks/scale.py
 
 
 def case_text(mesh, capacity):
@@ -46,39 +41,16 @@ def worker(target, capacity, steps):
     with tempfile.TemporaryDirectory() as tmp:
         (Path(tmp) / "case.toml").write_text(case_text(mesh_file(target), capacity))
         model = femcrowd.Simulation(femcrowd.load_case(tmp)).model
-        for _ in range(3):
-            model.step(math.inf)
-        before = dict(model.solver.timers)
-        durations, at_capacity = [], 0
-        for _ in range(steps):
-            tic = time.perf_counter()
-            info = model.step(math.inf)
-            durations.append(time.perf_counter() - tic)
-            at_capacity += "doors" in info and info["doors"]["exit"][1] > 0
-        timers = {name: (value - before.get(name, 0.0)) / steps for name, value in model.solver.timers.items()}
-    print(json.dumps({"step": float(np.median(durations)), "cells": model.domain.ncells,
-                      "at_capacity": at_capacity, **timers}))
-
-
-def measure(code, target, capacity, steps):
-    """One configuration in a fresh process on the femcrowd of `code` (a checkout, or None: this one)."""
-    env = dict(os.environ)
-    if code is not None:
-        env["PYTHONPATH"] = str(code)
-    done = subprocess.run([sys.executable, __file__, "--worker", str(target), str(capacity), str(steps)], env=env,
-                          capture_output=True, text=True, check=True)
-    return json.loads(done.stdout.splitlines()[-1])
+        step, timers, infos = timed_steps(model, steps)
+    at_capacity = sum("doors" in info and info["doors"]["exit"][1] > 0 for info in infos)
+    print(json.dumps({"step": step, "cells": model.domain.ncells, "at_capacity": at_capacity, **timers}))
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", nargs="+", type=float, default=[1e4, 1e5])
     parser.add_argument("--capacity", type=float, default=1.0, help="the door's capacity, rho_max x m/s per metre")
-    parser.add_argument("--steps", type=int, default=20)
-    parser.add_argument("--repeat", type=int, default=3)
-    parser.add_argument("--baseline", help="a checkout of femcrowd before door capacities (free door, same rounds)")
-    parser.add_argument("--worker", nargs=3, help=argparse.SUPPRESS)
-    args = parser.parse_args()
+    args = arguments(parser, "a checkout of femcrowd before door capacities (free door, same rounds)")
     if args.worker:
         capacity = None if args.worker[1] == "None" else float(args.worker[1])
         return worker(float(args.worker[0]), capacity, int(args.worker[2]))
@@ -89,18 +61,14 @@ def main():
     print("|---:|---|---:|---:|---:|---:|---:|")
     for target in args.sizes:
         mesh_file(target)
-        runs = {name: [] for name, _, _ in configs}
-        for _ in range(args.repeat):
-            for name, code, capacity in configs:
-                runs[name].append(measure(code, target, capacity, args.steps))
-        free = np.median([r["step"] for r in runs["free"]])
+        runs = rounds(configs, args.repeat,
+                      lambda code, capacity: in_process(__file__, (target, capacity, args.steps), code))
+        free = median(runs["free"], "step")
         for name, _, _ in configs:
-            step = np.median([r["step"] for r in runs[name]])
-            transport = np.median([r["transport"] for r in runs[name]])
-            projection = np.median([r["projection"] for r in runs[name]])
-            print(f"| {runs[name][0]['cells']} | {name} | {1e3 * step:.2f} ms | {1e3 * transport:.2f} ms | "
-                  f"{1e3 * projection:.2f} ms | {runs[name][0]['at_capacity']}/{args.steps} | {step / free:.3f} |",
-                  flush=True)
+            step = median(runs[name], "step")
+            print(f"| {runs[name][0]['cells']} | {name} | {1e3 * step:.2f} ms | "
+                  f"{1e3 * median(runs[name], 'transport'):.2f} ms | {1e3 * median(runs[name], 'projection'):.2f} ms | "
+                  f"{runs[name][0]['at_capacity']}/{args.steps} | {step / free:.3f} |", flush=True)
 
 
 if __name__ == "__main__":

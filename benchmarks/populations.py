@@ -19,16 +19,11 @@ in the same rounds.
 
 import argparse
 import json
-import math
-import os
-import subprocess
-import sys
 import tempfile
-import time
 from pathlib import Path
 
-import numpy as np
-from scale import DENSITY, mesh_file  # the hall of benchmarks/scale.py (this script's folder is on sys.path)
+from alternating import arguments, in_process, median, rounds, timed_steps  # this script's folder is on sys.path
+from scale import DENSITY, mesh_file  # the hall of benchmarks/scale.py
 
 
 def case_text(mesh, k):
@@ -49,37 +44,20 @@ def worker(target, k, steps):
     with tempfile.TemporaryDirectory() as tmp:
         (Path(tmp) / "case.toml").write_text(case_text(mesh_file(target), k))
         model = femcrowd.Simulation(femcrowd.load_case(tmp)).model
-        for _ in range(3):
-            model.step(math.inf)
-        before = dict(model.solver.timers)
-        durations = []
-        for _ in range(steps):
-            tic = time.perf_counter()
-            model.step(math.inf)
-            durations.append(time.perf_counter() - tic)
-        timers = {name: (value - before.get(name, 0.0)) / steps for name, value in model.solver.timers.items()}
-    print(json.dumps({"step": float(np.median(durations)), "cells": model.domain.ncells, **timers}))
+        step, timers, _ = timed_steps(model, steps)
+    print(json.dumps({"step": step, "cells": model.domain.ncells, **timers}))
 
 
 def measure(code, target, k, steps):
     """One configuration in a fresh process on the femcrowd of `code` (a checkout, or None: this one)."""
-    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
-    if code is not None:
-        env["PYTHONPATH"] = str(code)
-    done = subprocess.run([sys.executable, __file__, "--worker", str(target), str(k), str(steps)], env=env,
-                          capture_output=True, text=True, check=True)
-    return json.loads(done.stdout.splitlines()[-1])
+    return in_process(__file__, (target, k, steps), code, {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"})
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", nargs="+", type=float, default=[1e4])
     parser.add_argument("--populations", default="1,2,4")
-    parser.add_argument("--steps", type=int, default=20)
-    parser.add_argument("--repeat", type=int, default=3)
-    parser.add_argument("--baseline", help="a checkout of femcrowd to time one population on (before/after)")
-    parser.add_argument("--worker", nargs=3, help=argparse.SUPPRESS)
-    args = parser.parse_args()
+    args = arguments(parser, "a checkout of femcrowd to time one population on (before/after)")
     if args.worker:
         return worker(float(args.worker[0]), int(args.worker[1]), int(args.worker[2]))
     ks = [int(k) for k in args.populations.split(",")]
@@ -89,18 +67,14 @@ def main():
     print("|---:|---|---:|---:|---:|---:|---:|")
     for target in args.sizes:
         mesh_file(target)
-        runs = {name: [] for name, _, _ in configs}
-        for _ in range(args.repeat):
-            for name, code, k in configs:
-                runs[name].append(measure(code, target, k, args.steps))
-        one = np.median([r["step"] for r in runs["k = 1"]])
+        runs = rounds(configs, args.repeat, lambda code, k: measure(code, target, k, args.steps))
+        one = median(runs["k = 1"], "step")
         for name, _, k in configs:
-            step = np.median([r["step"] for r in runs[name]])
-            transport = np.median([r["transport"] for r in runs[name]])
-            projection = np.median([r["projection"] for r in runs[name]])
+            step = median(runs[name], "step")
             bound = f"{1 + 0.2 * k:.1f}" if name != "baseline" else ""
-            print(f"| {runs[name][0]['cells']} | {name} | {1e3 * step:.2f} ms | {1e3 * transport:.2f} ms | "
-                  f"{1e3 * projection:.2f} ms | {step / one:.3f} | {bound} |", flush=True)
+            print(f"| {runs[name][0]['cells']} | {name} | {1e3 * step:.2f} ms | "
+                  f"{1e3 * median(runs[name], 'transport'):.2f} ms | {1e3 * median(runs[name], 'projection'):.2f} ms | "
+                  f"{step / one:.3f} | {bound} |", flush=True)
 
 
 if __name__ == "__main__":
