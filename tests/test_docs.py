@@ -49,7 +49,7 @@ def command_blocks(path):
 def run_document(path, tmp_path, slow):
     """Run the blocks of one document in a fresh copy of the repository (the slow ones too when slow)."""
     copy = tmp_path / "femcrowd"
-    shutil.copytree(ROOT, copy, ignore=IGNORE)
+    shutil.copytree(ROOT, copy, ignore=IGNORE, symlinks=True)
     env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}"}
     ran = 0
     for line, commands, is_slow in command_blocks(path):

@@ -217,3 +217,24 @@ def validate(out, settings, widths, levels, seeds, overrides, serial, scheduler,
     click.echo("\n" + text)
     click.echo(f"{len(table)} rows in {time.perf_counter() - tic:.0f} s; table: {root / 'validation.md'}, "
                f"runs: {root / 'validation.csv'}, plot: {root / 'validation.png'}")
+
+
+@main.command()
+@click.option("--levels", type=click.IntRange(2, 6), default=4, show_default=True,
+              help="Levels of uniform refinement.")
+def extensions(levels):
+    """Refinement studies of the extensions against their exact solutions.
+
+    The LWR Riemann problems of the linear speed law, two populations
+    meeting head-on and the saturated evacuation in two colours, each on
+    LEVELS meshes: the errors with their observed orders, and the
+    invariants over every step of every level (the tables of
+    docs/extensions.md).
+
+    \b
+    Example:
+      femcrowd extensions --levels 3
+    """
+    from ..studies.extensions import report
+
+    click.echo(report(levels))

@@ -1,24 +1,19 @@
-"""Refinement studies of the extensions against their exact solutions (docs/extensions.md): LWR Riemann
-problems with the linear speed law, two populations meeting head-on, the saturated evacuation in two
-colours. Each run steps exactly as ``femcrowd run`` does (femcrowd.Simulation, in memory).
-
-    python -m femcrowd.studies.extensions [--levels 4]     # the tables of docs/extensions.md
-
-The tests (tests/macro/test_extensions_exact.py) call the same functions on fewer levels.
+"""Refinement studies of the extensions against their exact solutions (``femcrowd extensions``,
+docs/extensions.md): LWR Riemann problems with the linear speed law, two populations meeting head-on,
+the saturated evacuation in two colours. Each run steps exactly as ``femcrowd run`` does
+(femcrowd.Simulation, in memory). The tests (tests/macro/test_extensions_exact.py) call the same
+functions on fewer levels.
 """
 
-import argparse
 import time
 
 import numpy as np
 
+from .. import shipped
 from ..case import load_case
 from ..driver import Simulation
 from ..macro.diagnostics import SATURATED
 from ..macro.exact import ColouredEvacuation, HeadOnPopulations, LWRRiemann
-from .stress import CASES as STRESS
-
-ROOT = STRESS.parents[1]
 
 
 def run_level(case_dir, level, overrides=None):
@@ -62,7 +57,7 @@ def lwr_riemann(levels=4, kind="shock"):
     exact = LWRRiemann(0.1, 0.7) if kind == "shock" else LWRRiemann(0.9, 0.1)
     rows = []
     for level in range(levels):
-        result, seconds = run_level(ROOT / "cases" / f"lwr-{kind}", level)
+        result, seconds = run_level(shipped.cases(f"lwr-{kind}"), level)
         domain, state = result.domain, result.state
         reference = domain.cell_average(exact.density, t=state.t)
         mid = (exact.left + exact.right) / 2
@@ -85,7 +80,7 @@ def head_on(levels=4, t=None):
                  "populations.west.density": "0.6 * (x > 0.5) * (x < 1.5)", "populations.west.ux": "-1"}
     rows = []
     for level in range(levels):
-        result, seconds = run_level(STRESS / "head-on", level, overrides)
+        result, seconds = run_level(shipped.cases("stress", "head-on"), level, overrides)
         domain, state = result.domain, result.state
         x = domain.centroid[:, 0]
         width = domain.area.sum() / 4.0
@@ -112,8 +107,8 @@ def coloured_evacuation(levels=4, t=0.6):
                  "populations.back.density": "1.0 * (x >= 0.5) * (x < 1)"}
     rows = []
     for level in range(levels):
-        one, _ = run_level(ROOT / "cases" / "saturated-exit", level, {"time.end": t})
-        result, seconds = run_level(ROOT / "cases" / "saturated-exit", level, overrides)
+        one, _ = run_level(shipped.cases("saturated-exit"), level, {"time.end": t})
+        result, seconds = run_level(shipped.cases("saturated-exit"), level, overrides)
         domain, state, h = result.domain, result.state, result.history
         front, back = state.rho
         width = domain.area.sum() / 2.0
@@ -152,25 +147,21 @@ def table(rows, metrics):
     return "\n".join(lines)
 
 
-def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--levels", type=int, default=4)
-    levels = parser.parse_args(argv).levels
+def report(levels: int = 4) -> str:
+    """The tables of docs/extensions.md: every study on `levels` levels, errors with observed orders, and the
+    invariants over every step of every level."""
     studies = [("LWR shock (cases/lwr-shock, t = 1)", lwr_riemann(levels, "shock"), ["l1", "position_error"]),
                ("LWR fan (cases/lwr-fan, t = 1)", lwr_riemann(levels, "fan"), ["l1", "position_error"]),
                ("Two populations head-on (t = 0.9)", head_on(levels),
                 ["l1", "front_error", "l1_east", "l1_west", "far_east", "far_west", "far_exact"]),
                ("Saturated evacuation in two colours (t = 0.6)", coloured_evacuation(levels),
                 ["l1", "l1_front", "l1_back", "evacuated_front_error", "evacuated_back_error"])]
+    parts = []
     for title, rows, metrics in studies:
-        print(f"\n{title}; error (observed order)\n")
-        print(table(rows, metrics))
         worst = {k: max(abs(r[k]) for r in rows) for k in rows[0] if k.startswith(("mass_error", "total_vs"))}
-        print("\nover every step of every level: " + ", ".join(f"{k} <= {v:.1e}" for k, v in worst.items())
-              + f"; min density {min(r['min_density'] for r in rows):.2g}, max density "
-              f"{max(r['max_density'] for r in rows):.12g}; steps with a projection "
-              f"{[r['projection_steps'] for r in rows]}")
-
-
-if __name__ == "__main__":
-    main()
+        parts.append(f"\n{title}; error (observed order)\n\n{table(rows, metrics)}\n\nover every step of every "
+                     "level: " + ", ".join(f"{k} <= {v:.1e}" for k, v in worst.items())
+                     + f"; min density {min(r['min_density'] for r in rows):.2g}, max density "
+                     f"{max(r['max_density'] for r in rows):.12g}; steps with a projection "
+                     f"{[r['projection_steps'] for r in rows]}")
+    return "\n".join(parts)

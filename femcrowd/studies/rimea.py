@@ -16,12 +16,13 @@ from typing import Callable
 
 import numpy as np
 
+from .. import shipped
 from ..case import load_case
 from ..driver import Simulation
 from .recommended import DISCS, DOOR_CAPACITY, FLUCTUATION, PUSH, SPEED, door_capacity
 
-#: the cases of a source checkout
-CASES = Path(__file__).resolve().parents[2] / "cases" / "rimea"
+#: the cases (shipped with femcrowd)
+CASES = shipped.cases("rimea")
 
 
 @dataclass(frozen=True)

@@ -23,14 +23,15 @@ import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from .. import shipped
 from ..case import load_case
 from ..driver import run
 from ..driver.output import prepare_output_dir
 from ..errors import InputError
 from .stress_checks import CHECKS, LINEAR_TOL, MASS_TOL, RHO_TOL, Check, Output, population_invariants
 
-#: the scenes of a source checkout
-CASES = Path(__file__).resolve().parents[2] / "cases" / "stress"
+#: the scenes (shipped with femcrowd)
+CASES = shipped.cases("stress")
 COLUMNS = ["scene", "steps", "min_rho", "max_rho", "mass_error", "min_p", "complementarity",
            "as_iterations", "linear_residual", "nan", "wall_s", "verdict"]
 WIDTHS = [20, 6, 14, 14, 10, 5, 15, 13, 15, 3, 6, 7]
