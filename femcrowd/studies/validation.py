@@ -25,6 +25,7 @@ from ..driver import Simulation
 from ..driver.output import prepare_output_dir
 from ..errors import InputError
 from ..mesh.floorplan import build_mesh
+from ..plot.validation import flows_plot
 from .execute import execute
 from .recommended import DISCS, DOOR_CAPACITY, PUSH, SPEED, door_capacity
 
@@ -209,38 +210,6 @@ def markdown(table) -> str:
     return "\n".join(lines) + "\n"
 
 
-def plot(rows, table, path):
-    """Specific flow against width: each setting's converged values (its coarser meshes or seeds as small
-    marks), the experiments at these widths as grey symbols per source."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    widths = [r["width"] for r in table]
-    low, high = min(widths) - 0.25, max(widths) + 0.25
-    fig, ax = plt.subplots(figsize=(9, 7.5), layout="constrained")
-    markers = iter("osD^v<>p*hX")
-    published = [r for r in experiments() if r["width_m"] and low <= r["width_m"] <= high and r["kind"] == "measured"]
-    for source in dict.fromkeys(r["source"] for r in published):
-        mine = [r for r in published if r["source"] == source]
-        ax.scatter([r["width_m"] for r in mine], [r["specific_flow"] for r in mine], marker=next(markers),
-                   s=24, color="0.6", label=f"{source} {mine[0]['year']}", zorder=1)
-    for k, name in enumerate(dict.fromkeys(r["setting"] for r in table)):
-        mine = [r for r in table if r["setting"] == name]
-        ax.plot([r["width"] for r in mine], [r["specific_flow"] for r in mine], "o-", color=f"C{k}", lw=2,
-                label=SETTINGS[name].label, zorder=3)
-        runs = [r for r in rows if r["setting"] == name]
-        ax.scatter([r["width"] for r in runs], [r["specific_flow"] for r in runs], s=8, color=f"C{k}", alpha=0.5,
-                   zorder=2)
-    ax.set(xlabel="bottleneck width w (m)", ylabel="specific flow J / w (persons/(m s))", yscale="log",
-           xlim=(low, high), title="Flow through a bottleneck: femcrowd (lines) and experiments (grey)")
-    ax.grid(alpha=0.3, which="both")
-    fig.legend(loc="outside lower center", fontsize=7.5, ncol=2)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
 def validate(out, settings=tuple(SETTINGS), widths=WIDTHS, levels: int = 3, seeds: int = 5, overrides=(),
              serial=False, scheduler=None, force=False, echo=None) -> tuple:
     """Run the validation into `out`: validation.csv (every run), validation.md (the table), validation.png.
@@ -255,5 +224,6 @@ def validate(out, settings=tuple(SETTINGS), widths=WIDTHS, levels: int = 3, seed
     table = summarise(rows)
     text = markdown(table)
     (root / "validation.md").write_text(text)
-    plot(rows, table, root / "validation.png")
+    flows_plot(rows, table, {name: setting.label for name, setting in SETTINGS.items()}, experiments(),
+               root / "validation.png")
     return table, text, root
