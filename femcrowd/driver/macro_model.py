@@ -100,7 +100,7 @@ class MacroModel:
         schemes = self.solver.transports(self.state, exits)
         check_transport_cfl(case, min(schemes, key=lambda s: s.max_cfl * s.max_dt))
         scene.timing["assembly"] = time.perf_counter() - tic
-        self.initial_mass = self.mass
+        self.initial_mass = self.inside = self.mass
         self.empty_fraction = case["time"]["empty_fraction"]
         self.stop_when_empty = case["time"]["stop_when_empty"] and bool(domain.exit_group)
         self.evacuation_time = None   # the first time with less than empty_mass inside (scenes with exits)
@@ -143,18 +143,20 @@ class MacroModel:
         return self.solver.timers
 
     def step(self, until: float) -> dict:
-        """One step, not beyond `until`; the solver's diagnostics of it."""
-        return self.solver.step(self.state, until)
+        """One step, not beyond `until`; the solver's diagnostics of it. Notes the mass inside (the empty check)
+        and the evacuation time (the first time less than empty_mass is inside, nobody arriving)."""
+        info = self.solver.step(self.state, until)
+        self.inside = self.mass
+        if self.evacuation_time is None and self.domain.exit_group and self.inside <= self.empty_mass \
+                and not self.arriving():
+            self.evacuation_time = self.state.t
+        return info
 
     def row(self, info=None) -> dict:
         """The diagnostics of the current state (info: the step's, None for the initial state)."""
         d = invariants(self.domain, self.state)
         if info is None:
             info = {"dt": 0.0, "active_set_iterations": 0, "linear_residual": 0.0, "step_seconds": 0.0}
-        elif self.evacuation_time is None and self.domain.exit_group and d["mass"] <= self.empty_mass \
-                and not self.arriving():
-            self.evacuation_time = self.state.t
-        self.inside = d["mass"]
         r = self.rho_max
         supplied = self.initial_mass + self.inflow
         error = abs(d["mass"] + d["evacuated"] - supplied) / max(supplied, 1e-300)
@@ -234,7 +236,7 @@ class MacroModel:
         st.t, st.steps = float(data["t"]), int(data["steps"])
         self.evacuation_time = None if np.isnan(data["evacuation_time"]) else float(data["evacuation_time"])
         restore_parts(data, sources=self.sources, measure=self.measurements)
-        self.row()  # the mass inside, for the empty check
+        self.inside = self.mass
 
     def open_files(self, directory, resume: bool = False) -> list:
         """Files the model writes itself as the run goes (none: frames and tables are the driver's)."""

@@ -4,18 +4,19 @@ the case's), its speed law f(rho) and its initial density. A case without [popul
 "crowd", made of [velocity] and [initial]: nothing else changes for it.
 
 Everything is checked here, before the output directory is touched: a population heading for an
-exit that is not one, densities that sum above rho_max, and the velocity checks of scene.py.
+exit that is not one, densities that sum above rho_max, expressions that give non-finite values, a speed
+that would make people walk away from the exits.
 """
 
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..case import Case
+from ..case import Case, Expression
 from ..errors import InputError
 from ..macro.speed_law import SpeedLaw
+from ..macro.velocity import ExitsVelocity, FieldVelocity
 from ..mesh import Boundary, Domain
-from .scene import desired_velocity, initial_density
 
 #: the one population of a case without [populations]
 CROWD = "crowd"
@@ -30,6 +31,64 @@ class Population:
     name: str
     velocity: object
     law: SpeedLaw
+
+
+def desired_velocity(case: Case, domain: Domain, boundary: Boundary, spec=None, key=None,
+                     targets=None) -> FieldVelocity | ExitsVelocity:
+    """The [velocity] of the case (or `spec`, a population's velocity table, its keys named by key(name));
+    for type "exits" (towards the exits `targets`, default all) the distance field of the exits open at
+    t = 0 is computed here (set-up), those of other door states when they first occur."""
+    spec = case["velocity"] if spec is None else spec
+    key = key or (lambda name: f"velocity.{name}")
+    if spec["type"] == "field":
+        where = np.vstack([domain.centroid, domain.midpoint])
+        ux, uy = (_checked(Expression(spec[k]), where, case, key(k), spec[k]) for k in ("ux", "uy"))
+        return FieldVelocity(domain, ux, uy)
+    if not domain.exit_group:
+        raise InputError(case.file, key("type"), "exits",
+                         "needs at least one exit (set boundary.exits) or use type = 'field'")
+    speed = Expression(spec["speed"])
+    if speed.depends_on_time:
+        raise InputError(case.file, key("speed"), spec["speed"],
+                         "must not depend on t for type = 'exits'")
+    values = _checked(speed, domain.centroid, case, key("speed"), spec["speed"])(*domain.centroid.T)
+    if values.min() < 0:
+        raise InputError(case.file, key("speed"), spec["speed"],
+                         f"is negative ({values.min():.3g}) somewhere: people would walk away from the exits "
+                         "(for such a scene give U itself: type = 'field')")
+    velocity = ExitsVelocity(domain, speed, targets)
+    velocity.cells(boundary.at(0.0))
+    return velocity
+
+
+def _checked(expr, xy, case, key, value):
+    """Evaluate once to reject non-finite values at load time; return the expression."""
+    values = expr(xy[:, 0], xy[:, 1], 0.0)
+    if not np.all(np.isfinite(values)):
+        raise InputError(case.file, key, value, "gives non-finite values on the mesh")
+    return expr
+
+
+def initial_density(case: Case, domain: Domain, source=None, key="initial.density") -> np.ndarray:
+    """Cell averages of the initial density (or of `source`, a population's, named `key`), scaled by rho_max."""
+    rho_max = case["model"]["rho_max"]
+    source = case["initial"]["density"] if source is None else source
+    density = domain.cell_average(Expression(source))
+    if not np.all(np.isfinite(density)):
+        raise InputError(case.file, key, source, "gives non-finite values on the mesh")
+    subdomains = domain.mesh.subdomains or {}
+    for name, value in case["initial"]["regions"].items() if key == "initial.density" else ():
+        if name not in subdomains:
+            raise InputError(case.file, f"initial.regions.{name}", value,
+                             f"no surface group of that name (groups: {', '.join(subdomains) or 'none'})")
+        if not 0 <= value <= rho_max:
+            raise InputError(case.file, f"initial.regions.{name}", value, f"is outside [0, rho_max = {rho_max:g}]")
+        density[np.asarray(subdomains[name])] = value
+    low, high = float(density.min()), float(density.max())
+    if low < 0 or high > rho_max * (1 + 1e-12):
+        bad = low if low < 0 else high
+        raise InputError(case.file, key, source, f"density {bad:g} is outside [0, rho_max = {rho_max:g}]")
+    return np.minimum(density / rho_max, 1.0)
 
 
 def build_populations(case: Case, domain: Domain, boundary: Boundary) -> list:

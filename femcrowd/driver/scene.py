@@ -11,25 +11,24 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..case import Case, Expression
+from ..case import Case
 from ..errors import InputError
-from ..macro.velocity import ExitsVelocity, FieldVelocity
 from ..mesh import Boundary, Domain, load_domain
 from ..micro.sampling import read_discs_csv, sample_discs
 from .measurements import read_measurements
+from .populations import build_populations, initial_density
 from .sources import read_sources
 
 
 @dataclass
 class Scene:
-    """The case, its domain, the exits over time (boundary), the desired velocity (of the first population),
-    the set-up times, the populations (driver/populations.py: velocity, speed law of each), and the
-    sources, measurement lines and areas (empty lists when the case has none)."""
+    """The case, its domain, the doors over time (boundary), the set-up times, the populations
+    (driver/populations.py: desired velocity and speed law of each), and the sources, measurement lines and
+    areas (empty lists when the case has none)."""
 
     case: Case
     domain: Domain
     boundary: Boundary
-    velocity: object
     timing: dict = field(default_factory=dict)
     populations: list = field(default_factory=list)
     sources: list = field(default_factory=list)
@@ -39,8 +38,6 @@ class Scene:
 
 def build_scene(case: Case) -> Scene:
     """Load the mesh and build the desired velocity of each population (timed: mesh, desired_velocity)."""
-    from .populations import build_populations  # it builds on desired_velocity below
-
     tic = time.perf_counter()
     domain = load_domain(case.path(case["mesh"]["file"]), case["boundary"]["exits"],
                          case["mesh"]["refine"], case.file)
@@ -49,9 +46,8 @@ def build_scene(case: Case) -> Scene:
     lines, areas = read_measurements(case, domain)
     toc = time.perf_counter()
     populations = build_populations(case, domain, boundary)
-    return Scene(case, domain, boundary, populations[0].velocity,
-                 {"mesh": toc - tic, "desired_velocity": time.perf_counter() - toc}, populations,
-                 sources, lines, areas)
+    return Scene(case, domain, boundary, {"mesh": toc - tic, "desired_velocity": time.perf_counter() - toc},
+                 populations, sources, lines, areas)
 
 
 def door_schedule(case: Case, domain: Domain) -> dict:
@@ -89,64 +85,6 @@ def door_capacity(case: Case, domain: Domain) -> dict:
             raise InputError(case.file, key, value, "a capacity on an interior door needs a one-stage transport "
                              f"(scheme.transport = {' or '.join(map(repr, ONE_STAGE))})")
     return {name: value / case["model"]["rho_max"] for name, value in capacity.items()}
-
-
-def desired_velocity(case: Case, domain: Domain, boundary: Boundary, spec=None, key=None,
-                     targets=None) -> FieldVelocity | ExitsVelocity:
-    """The [velocity] of the case (or `spec`, a population's velocity table, its keys named by key(name));
-    for type "exits" (towards the exits `targets`, default all) the distance field of the exits open at
-    t = 0 is computed here (set-up), those of other door states when they first occur."""
-    spec = case["velocity"] if spec is None else spec
-    key = key or (lambda name: f"velocity.{name}")
-    if spec["type"] == "field":
-        where = np.vstack([domain.centroid, domain.midpoint])
-        ux, uy = (_checked(Expression(spec[k]), where, case, key(k), spec[k]) for k in ("ux", "uy"))
-        return FieldVelocity(domain, ux, uy)
-    if not domain.exit_group:
-        raise InputError(case.file, key("type"), "exits",
-                         "needs at least one exit (set boundary.exits) or use type = 'field'")
-    speed = Expression(spec["speed"])
-    if speed.depends_on_time:
-        raise InputError(case.file, key("speed"), spec["speed"],
-                         "must not depend on t for type = 'exits'")
-    values = _checked(speed, domain.centroid, case, key("speed"), spec["speed"])(*domain.centroid.T)
-    if values.min() < 0:
-        raise InputError(case.file, key("speed"), spec["speed"],
-                         f"is negative ({values.min():.3g}) somewhere: people would walk away from the exits "
-                         "(for such a scene give U itself: type = 'field')")
-    velocity = ExitsVelocity(domain, speed, targets)
-    velocity.cells(boundary.at(0.0))
-    return velocity
-
-
-def _checked(expr, xy, case, key, value):
-    """Evaluate once to reject non-finite values at load time; return the expression."""
-    values = expr(xy[:, 0], xy[:, 1], 0.0)
-    if not np.all(np.isfinite(values)):
-        raise InputError(case.file, key, value, "gives non-finite values on the mesh")
-    return expr
-
-
-def initial_density(case: Case, domain: Domain, source=None, key="initial.density") -> np.ndarray:
-    """Cell averages of the initial density (or of `source`, a population's, named `key`), scaled by rho_max."""
-    rho_max = case["model"]["rho_max"]
-    source = case["initial"]["density"] if source is None else source
-    density = domain.cell_average(Expression(source))
-    if not np.all(np.isfinite(density)):
-        raise InputError(case.file, key, source, "gives non-finite values on the mesh")
-    subdomains = domain.mesh.subdomains or {}
-    for name, value in case["initial"]["regions"].items() if key == "initial.density" else ():
-        if name not in subdomains:
-            raise InputError(case.file, f"initial.regions.{name}", value,
-                             f"no surface group of that name (groups: {', '.join(subdomains) or 'none'})")
-        if not 0 <= value <= rho_max:
-            raise InputError(case.file, f"initial.regions.{name}", value, f"is outside [0, rho_max = {rho_max:g}]")
-        density[np.asarray(subdomains[name])] = value
-    low, high = float(density.min()), float(density.max())
-    if low < 0 or high > rho_max * (1 + 1e-12):
-        bad = low if low < 0 else high
-        raise InputError(case.file, key, source, f"density {bad:g} is outside [0, rho_max = {rho_max:g}]")
-    return np.minimum(density / rho_max, 1.0)
 
 
 def initial_discs(case: Case, domain: Domain, exits, rho=None) -> tuple[np.ndarray, np.ndarray]:

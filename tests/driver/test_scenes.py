@@ -70,7 +70,7 @@ def test_closing_one_of_two_doors_reroutes_within_one_step():
     probe = sim.scene.domain.locate(np.array([[18.0, 6.0]]))[0]
     directions = []
     while state.t < 1.5:
-        u = sim.scene.velocity.cells(boundary.at(state.t))[probe]   # the U of the coming step
+        u = sim.scene.populations[0].velocity.cells(boundary.at(state.t))[probe]   # the U of the coming step
         directions.append((state.t, u))
         sim.model.step(1.5)
     before = [u for t, u in directions if t < 1.0]
