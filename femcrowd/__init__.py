@@ -15,7 +15,16 @@ try:
 except PackageNotFoundError:  # running from a source tree that is not installed
     __version__ = "0.0.0+unknown"
 
-from .case import load_case  # noqa: E402
-from .driver import Result, Simulation, run  # noqa: E402
+#: the names of the API and the module each comes from, imported at first use (PEP 562): `import femcrowd.case`
+#: then loads the case layer alone, not the models
+API = {"load_case": "case", "Result": "driver", "Simulation": "driver", "run": "driver"}
 
 __all__ = ["Result", "Simulation", "__version__", "load_case", "run"]
+
+
+def __getattr__(name):
+    if name in API:
+        import importlib
+
+        return getattr(importlib.import_module(f".{API[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

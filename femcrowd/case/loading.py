@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import InputError
-from .expressions import Expression
+from ..expressions import Expression
 from .schema import REQUIRED, SCHEMA, NamedTables, check_value
 
 #: the name of a table of a table of tables ([populations.<name>]): it names columns and arrays

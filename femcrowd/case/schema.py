@@ -5,22 +5,16 @@ kind (string, number in a range, choice, expression, ...); a bad one raises
 :class:`InputError` naming the file, the key and the value.
 """
 
-import inspect
+import difflib
 import math
 from dataclasses import dataclass
 
+from .. import registry
 from ..errors import InputError
-from ..macro.exact import SOLUTIONS
-from ..macro.speed_law import NAMES as SPEED_LAWS
-from ..macro.speed_law import LawError, SpeedLaw
-from ..macro.transport import TRANSPORTS
-from ..micro.strategies import STRATEGIES
-from .expressions import Expression, ExpressionError
+from ..expressions import Expression, ExpressionError
 
 REQUIRED = object()
 FIELDS = ("density", "pressure", "velocity")
-#: parameters of the exact solutions (femcrowd.exact), keys of the [exact] table
-EXACT_PARAMETERS = sorted({p for cls in SOLUTIONS.values() for p in inspect.signature(cls).parameters})
 
 
 @dataclass(frozen=True)
@@ -31,7 +25,7 @@ class Key:
     default: object
     kind: str
     doc: str = ""
-    choices: tuple = ()
+    choices: object = ()   # a tuple, or a function of no arguments that gives it (the models', femcrowd.registry)
     low: float = -math.inf
     high: float = math.inf
     low_open: bool = False
@@ -139,7 +133,7 @@ SCHEMA = {
                       "to a certified relative objective gap of 1e-7 with no overlap), or Uzawa's iteration",
                       ("exact", "uzawa")),
         "strategy": Key("push", "choice", "what a disc does behind slower visible neighbours (Maury et al. 2011): "
-                        "push on, decelerate to their mean speed, or bypass them", STRATEGIES),
+                        "push on, decelerate to their mean speed, or bypass them", registry.strategies),
         "view_distance": Key(1.0, "number", "how far a disc sees (m): the neighbours of the strategies and the "
                              "density of the speed law", low=0, low_open=True),
         "view_angle": Key(45.0, "number", "half angle of view (degrees) of the strategies and the speed law",
@@ -152,13 +146,10 @@ SCHEMA = {
     "scheme": {
         "transport": Key("upwind", "choice", "the prediction: order-0 upwind; limited linear reconstruction with "
                          "SSP-RK2 (muscl) or one Euler stage (compressive); backward-Euler upwind, positive at any "
-                         "time step (implicit)", tuple(TRANSPORTS)),
+                         "time step (implicit)", registry.transports),
     },
-    "exact": {
-        "name": Key(None, "choice", "the exact solution of the case, the reference of femcrowd convergence",
-                    tuple(SOLUTIONS)),
-        **{name: Key(None, "number", "a parameter of the exact solution") for name in EXACT_PARAMETERS},
-    },
+    "exact": Key(None, "exact", "the exact solution of the case, the reference of femcrowd convergence: "
+                 "{ name = ..., and its parameters }, e.g. { name = \"saturated-evacuation\", k = 1.0, s0 = 1.0 }"),
     "sources": Key([], "table_array", "people arriving through a boundary group that is not an exit ([[sources]])",
                    items={
                        "boundary": Key(REQUIRED, "str", "the physical line group they enter through"),
@@ -211,8 +202,9 @@ def check_value(spec: Key, value, file, key: str):
             fail("expected true or false")
         return value
     if kind == "choice":
-        if value not in spec.choices:
-            fail(f"expected one of {', '.join(map(repr, spec.choices))}")
+        choices = spec.choices() if callable(spec.choices) else spec.choices
+        if value not in choices:
+            fail(f"expected one of {', '.join(map(repr, choices))}")
         return value
     if kind in ("number", "int"):
         if not is_number(value) or (kind == "int" and not isinstance(value, int)):
@@ -250,12 +242,13 @@ def check_value(spec: Key, value, file, key: str):
         return value
     if kind == "law":
         if not isinstance(value, str):
-            fail(f"expected one of {', '.join(map(repr, SPEED_LAWS))} or an expression in rho")
-        try:
-            SpeedLaw(value)
-        except LawError as err:
-            fail(str(err))
+            fail(f"expected one of {', '.join(map(repr, registry.speed_laws()))} or an expression in rho")
+        error = registry.speed_law_error(value)
+        if error:
+            fail(error)
         return value
+    if kind == "exact":
+        return _exact(value, file, key)
     if kind == "radius":
         ok = is_number(value) and value > 0 or (
             isinstance(value, list) and len(value) == 2 and all(is_number(v) for v in value)
@@ -298,6 +291,26 @@ def check_value(spec: Key, value, file, key: str):
             fail("expected an array of tables")
         return value   # each table is resolved against spec.items by case.loading
     raise AssertionError(kind)
+
+
+def _exact(value, file, key) -> dict:
+    """[exact]: the name of an exact solution and numbers for its parameters (which of them a solution takes is
+    checked when it is built, studies/measures.py)."""
+    if not isinstance(value, dict):
+        raise InputError(file, key, value, "expected a table { name = ..., and parameters }")
+    solutions = registry.exact_solutions()
+    parameters = sorted({p for names in solutions.values() for p in names})
+    for name, item in value.items():
+        if name == "name":
+            if item is not None and item not in solutions:
+                raise InputError(file, f"{key}.name", item, f"expected one of {', '.join(map(repr, solutions))}")
+        elif name not in parameters:
+            close = difflib.get_close_matches(name, parameters, n=1)
+            hint = f" (did you mean {key}.{close[0]!r}?)" if close else f" (parameters: {', '.join(parameters)})"
+            raise InputError(file, f"{key}.{name}", item, f"unknown key{hint}")
+        elif not is_number(item) or not math.isfinite(item):
+            raise InputError(file, f"{key}.{name}", item, "expected a finite number")
+    return {"name": None, **value}   # a table without a name is refused when the solution is built
 
 
 def _point(value) -> bool:

@@ -25,7 +25,7 @@ flow through a door falls as the mesh is refined.
 
 import numpy as np
 
-from ..case.expressions import Expression, ExpressionError
+from ..expressions import Expression, ExpressionError
 
 #: Weidmann (1993), the fundamental diagram of pedestrian flow on a level floor
 WEIDMANN_GAMMA = 1.913  # m^-2

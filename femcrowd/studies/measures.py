@@ -47,7 +47,7 @@ FRONTS = {WallAccumulation: ("x", lambda s: (1 + s.a) / 2),
 
 def exact_solution(case):
     """The case's [exact] solution object, or None (self-convergence)."""
-    spec = case["exact"]
+    spec = case["exact"] or {"name": None}
     given = {k: v for k, v in spec.items() if k != "name" and v is not None}
     if spec["name"] is None:
         if given:

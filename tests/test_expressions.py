@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from femcrowd.case.expressions import Expression, ExpressionError
+from femcrowd.expressions import Expression, ExpressionError
 
 X = np.array([0.0, 1.0, 2.0, 5.0])
 Y = np.array([1.0, 0.5, -1.0, 0.0])
