@@ -187,130 +187,179 @@ def is_number(value):
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
+class Refused(ValueError):
+    """A value a checker refuses: the message, and the sub-key (and its value) it is about, None for the key."""
+
+    def __init__(self, message, sub=None, value=None):
+        super().__init__(message)
+        self.sub, self.value = sub, value
+
+
 def check_value(spec: Key, value, file, key: str):
-    """The clean value of a raw TOML value for the key `key`, or InputError."""
-    def fail(message):
-        raise InputError(file, key, value, message)
+    """The clean value of a raw TOML value for the key `key` (checked by the CHECKERS of its kind), or InputError
+    naming the file, the key (or its sub-key) and the value."""
+    try:
+        return CHECKERS[spec.kind](spec, value)
+    except Refused as refused:
+        if refused.sub is None:
+            raise InputError(file, key, value, str(refused)) from None
+        raise InputError(file, f"{key}.{refused.sub}", refused.value, str(refused)) from None
 
-    kind = spec.kind
-    if kind == "str":
-        if not isinstance(value, str):
-            fail("expected a string")
-        return value
-    if kind == "bool":
-        if not isinstance(value, bool):
-            fail("expected true or false")
-        return value
-    if kind == "choice":
-        choices = spec.choices() if callable(spec.choices) else spec.choices
-        if value not in choices:
-            fail(f"expected one of {', '.join(map(repr, choices))}")
-        return value
-    if kind in ("number", "int"):
-        if not is_number(value) or (kind == "int" and not isinstance(value, int)):
-            fail("expected an integer" if kind == "int" else "expected a number")
+
+def _string(spec, value):
+    if not isinstance(value, str):
+        raise Refused("expected a string")
+    return value
+
+
+def _boolean(spec, value):
+    if not isinstance(value, bool):
+        raise Refused("expected true or false")
+    return value
+
+
+def _choice(spec, value):
+    choices = spec.choices() if callable(spec.choices) else spec.choices
+    if value not in choices:
+        raise Refused(f"expected one of {', '.join(map(repr, choices))}")
+    return value
+
+
+def _number(spec, value):
+    integer = spec.kind == "int"
+    if not is_number(value) or (integer and not isinstance(value, int)):
+        raise Refused("expected an integer" if integer else "expected a number")
+    if not math.isfinite(value):
+        raise Refused("expected a finite number")
+    below = value <= spec.low if spec.low_open else value < spec.low
+    if below or value > spec.high:
+        raise Refused(f"must be in {'(' if spec.low_open else '['}{spec.low:g}, {spec.high:g}]")
+    return value
+
+
+def _expression(spec, value):
+    """A number, or an expression in x, y, t (femcrowd.expressions: parsed safely, never eval)."""
+    if is_number(value):
         if not math.isfinite(value):
-            fail("expected a finite number")
-        below = value <= spec.low if spec.low_open else value < spec.low
-        if below or value > spec.high:
-            lo = "(" if spec.low_open else "["
-            fail(f"must be in {lo}{spec.low:g}, {spec.high:g}]")
+            raise Refused("expected a finite number")
         return value
-    if kind == "expr":
-        if is_number(value):
-            if not math.isfinite(value):
-                fail("expected a finite number")
-            return value
-        if not isinstance(value, str):
-            fail("expected a number or an expression string")
-        try:
-            Expression(value)
-        except ExpressionError as err:
-            fail(str(err))
-        return value
-    if kind in ("strlist", "fields"):
-        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-            fail("expected a list of strings")
-        if kind == "fields":
-            bad = [v for v in value if v not in FIELDS]
-            if bad:
-                fail(f"unknown field {bad[0]!r} (fields: {', '.join(FIELDS)})")
-        return value
-    if kind == "regions":
-        if not isinstance(value, dict) or not all(is_number(v) for v in value.values()):
-            fail("expected a table of surface-group names to densities")
-        return value
-    if kind == "law":
-        if not isinstance(value, str):
-            fail(f"expected one of {', '.join(map(repr, registry.speed_laws()))} or an expression in rho")
-        error = registry.speed_law_error(value)
-        if error:
-            fail(error)
-        return value
-    if kind == "exact":
-        return _exact(value, file, key)
-    if kind == "radius":
-        ok = is_number(value) and value > 0 or (
-            isinstance(value, list) and len(value) == 2 and all(is_number(v) for v in value)
-            and 0 < value[0] <= value[1])
-        if not ok:
-            fail("expected a positive number or [min, max]")
-        return value
-    if kind == "name":
-        if not isinstance(value, str) or not value.replace("_", "").replace("-", "").isalnum():
-            fail("expected a name of letters, digits, _ and -")
-        return value
-    if kind == "point":
-        if not _point(value):
-            fail("expected a point [x, y]")
-        return [float(v) for v in value]
-    if kind == "polygon":
-        if not isinstance(value, list) or len(value) < 3 or not all(_point(p) for p in value):
-            fail("expected a polygon [[x, y], ...] of at least 3 points")
-        return [[float(v) for v in p] for p in value]
-    if kind == "capacities":
-        if not isinstance(value, dict):
-            fail("expected a table of door names to capacities (persons per metre per second)")
-        for name, c in value.items():
-            if not is_number(c) or not math.isfinite(c) or c <= 0:
-                raise InputError(file, f"{key}.{name}", c, "expected a capacity > 0 (persons per metre per second)")
-        return {name: float(c) for name, c in value.items()}
-    if kind == "schedules":
-        if not isinstance(value, dict):
-            fail("expected a table of exit names to lists of [from, to] times")
-        for name, spans in value.items():
-            ok = isinstance(spans, list) and all(
-                isinstance(s, list) and len(s) == 2 and all(is_number(v) and not math.isnan(v) for v in s)
-                and 0 <= s[0] < s[1] and math.isfinite(s[0]) for s in spans)
-            if not ok:
-                raise InputError(file, f"{key}.{name}", spans, "expected a list of [from, to] pairs of times "
-                                 "with 0 <= from < to (to may be inf)")
-        return {name: [[float(a), float(b)] for a, b in spans] for name, spans in value.items()}
-    if kind == "table_array":
-        if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
-            fail("expected an array of tables")
-        return value   # each table is resolved against spec.items by case.loading
-    raise AssertionError(kind)
+    if not isinstance(value, str):
+        raise Refused("expected a number or an expression string")
+    try:
+        Expression(value)
+    except ExpressionError as err:
+        raise Refused(str(err)) from None
+    return value
 
 
-def _exact(value, file, key) -> dict:
+def _strings(spec, value):
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        raise Refused("expected a list of strings")
+    return value
+
+
+def _fields(spec, value):
+    bad = [v for v in _strings(spec, value) if v not in FIELDS]
+    if bad:
+        raise Refused(f"unknown field {bad[0]!r} (fields: {', '.join(FIELDS)})")
+    return value
+
+
+def _regions(spec, value):
+    if not isinstance(value, dict) or not all(is_number(v) for v in value.values()):
+        raise Refused("expected a table of surface-group names to densities")
+    return value
+
+
+def _law(spec, value):
+    """A speed law: one of the models' names, or an expression in rho (femcrowd.registry checks it)."""
+    if not isinstance(value, str):
+        raise Refused(f"expected one of {', '.join(map(repr, registry.speed_laws()))} or an expression in rho")
+    error = registry.speed_law_error(value)
+    if error:
+        raise Refused(error)
+    return value
+
+
+def _exact(spec, value) -> dict:
     """[exact]: the name of an exact solution and numbers for its parameters (which of them a solution takes is
     checked when it is built, studies/measures.py)."""
     if not isinstance(value, dict):
-        raise InputError(file, key, value, "expected a table { name = ..., and parameters }")
+        raise Refused("expected a table { name = ..., and parameters }")
     solutions = registry.exact_solutions()
     parameters = sorted({p for names in solutions.values() for p in names})
     for name, item in value.items():
         if name == "name":
             if item is not None and item not in solutions:
-                raise InputError(file, f"{key}.name", item, f"expected one of {', '.join(map(repr, solutions))}")
+                raise Refused(f"expected one of {', '.join(map(repr, solutions))}", name, item)
         elif name not in parameters:
             close = difflib.get_close_matches(name, parameters, n=1)
-            hint = f" (did you mean {key}.{close[0]!r}?)" if close else f" (parameters: {', '.join(parameters)})"
-            raise InputError(file, f"{key}.{name}", item, f"unknown key{hint}")
+            raise Refused("unknown key" + (f" (did you mean {close[0]!r}?)" if close
+                                           else f" (parameters: {', '.join(parameters)})"), name, item)
         elif not is_number(item) or not math.isfinite(item):
-            raise InputError(file, f"{key}.{name}", item, "expected a finite number")
+            raise Refused("expected a finite number", name, item)
     return {"name": None, **value}   # a table without a name is refused when the solution is built
+
+
+def _radius(spec, value):
+    ok = is_number(value) and value > 0 or (
+        isinstance(value, list) and len(value) == 2 and all(is_number(v) for v in value) and 0 < value[0] <= value[1])
+    if not ok:
+        raise Refused("expected a positive number or [min, max]")
+    return value
+
+
+def _name(spec, value):
+    if not isinstance(value, str) or not value.replace("_", "").replace("-", "").isalnum():
+        raise Refused("expected a name of letters, digits, _ and -")
+    return value
+
+
+def _point_value(spec, value):
+    if not _point(value):
+        raise Refused("expected a point [x, y]")
+    return [float(v) for v in value]
+
+
+def _polygon(spec, value):
+    if not isinstance(value, list) or len(value) < 3 or not all(_point(p) for p in value):
+        raise Refused("expected a polygon [[x, y], ...] of at least 3 points")
+    return [[float(v) for v in p] for p in value]
+
+
+def _capacities(spec, value):
+    if not isinstance(value, dict):
+        raise Refused("expected a table of door names to capacities (persons per metre per second)")
+    for name, c in value.items():
+        if not is_number(c) or not math.isfinite(c) or c <= 0:
+            raise Refused("expected a capacity > 0 (persons per metre per second)", name, c)
+    return {name: float(c) for name, c in value.items()}
+
+
+def _schedules(spec, value):
+    if not isinstance(value, dict):
+        raise Refused("expected a table of exit names to lists of [from, to] times")
+    for name, spans in value.items():
+        ok = isinstance(spans, list) and all(
+            isinstance(s, list) and len(s) == 2 and all(is_number(v) and not math.isnan(v) for v in s)
+            and 0 <= s[0] < s[1] and math.isfinite(s[0]) for s in spans)
+        if not ok:
+            raise Refused("expected a list of [from, to] pairs of times with 0 <= from < to (to may be inf)",
+                          name, spans)
+    return {name: [[float(a), float(b)] for a, b in spans] for name, spans in value.items()}
+
+
+def _tables(spec, value):
+    if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
+        raise Refused("expected an array of tables")
+    return value   # each table is resolved against spec.items by case.loading
+
+
+#: the check of each kind of key: checker(spec, raw value) -> clean value, or Refused
+CHECKERS = {"str": _string, "bool": _boolean, "choice": _choice, "number": _number, "int": _number,
+            "expr": _expression, "strlist": _strings, "fields": _fields, "regions": _regions, "law": _law,
+            "exact": _exact, "radius": _radius, "name": _name, "point": _point_value, "polygon": _polygon,
+            "capacities": _capacities, "schedules": _schedules, "table_array": _tables}
 
 
 def _point(value) -> bool:
