@@ -10,14 +10,12 @@ from ..macro import MacroSolver, MacroState
 from ..macro.diagnostics import invariants, population_invariants
 from .checkpoint import parts, restore_parts
 from .measurements import MacroMeasurements
+from .model import SOURCE_COLUMNS, Evacuation
 from .output import triangle_frame
 from .populations import initial_densities
 from .recorder import Column
 from .scene import Scene, check_transport_cfl
-from .sources import MacroSources
-
-#: the history columns of a run with [[sources]]: cumulative mass that entered, mass waiting outside
-SOURCE_COLUMNS = [Column("inflow", (("inflow", "last"),)), Column("queued", (("queued", "last"),))]
+from .sources import macro_inflow
 
 
 def macro_columns(exit_names) -> list:
@@ -102,8 +100,6 @@ class MacroModel:
         scene.timing["assembly"] = time.perf_counter() - tic
         self.initial_mass = self.inside = self.mass
         self.empty_fraction = case["time"]["empty_fraction"]
-        self.stop_when_empty = case["time"]["stop_when_empty"] and bool(domain.exit_group)
-        self.evacuation_time = None   # the first time with less than empty_mass inside (scenes with exits)
         self.columns = macro_columns(domain.exit_names)
         self.doors = scene.boundary.capped
         self.columns += door_columns(self.doors)
@@ -113,13 +109,14 @@ class MacroModel:
             self.columns += population_columns(self.state.populations)
         self.sources = self.measurements = None   # hooks only for the scenes that have them
         if scene.sources:
-            self.sources = MacroSources(case, scene.sources, domain, self.state.populations)
+            self.sources = macro_inflow(case, scene.sources, domain, self.state.populations)
             self.solver.before_step.append(self.sources)
             self.columns += SOURCE_COLUMNS
-            self.last_arrival = max(source.end for source in scene.sources)
         if scene.lines or scene.areas:
             self.measurements = MacroMeasurements(scene.lines, scene.areas, domain, self.rho_max)
             self.measurements.attach(self.solver, self.state)
+        self.evacuation = Evacuation(case["time"]["stop_when_empty"], bool(domain.exit_group), self.sources,
+                                     max((source.end for source in scene.sources), default=-np.inf))
 
     @property
     def inflow(self) -> float:
@@ -147,9 +144,7 @@ class MacroModel:
         and the evacuation time (the first time less than empty_mass is inside, nobody arriving)."""
         info = self.solver.step(self.state, until)
         self.inside = self.mass
-        if self.evacuation_time is None and self.domain.exit_group and self.inside <= self.empty_mass \
-                and not self.arriving():
-            self.evacuation_time = self.state.t
+        self.evacuation.after_step(self.t, self.inside, self.empty_mass)
         return info
 
     def row(self, info=None) -> dict:
@@ -198,11 +193,7 @@ class MacroModel:
 
     def empty(self) -> bool:
         """Has the crowd left (less than time.empty_fraction of it inside), in a scene that stops then?"""
-        return self.stop_when_empty and self.inside <= self.empty_mass and not self.arriving()
-
-    def arriving(self) -> bool:
-        """Are people still arriving or waiting at a source?"""
-        return self.sources is not None and (self.state.t < self.last_arrival or self.sources.queued > 0)
+        return self.evacuation.empty(self.t, self.inside, self.empty_mass)
 
     def frame(self):
         """The cell fields asked for in [output].fields, in user units, on the triangles."""
@@ -225,8 +216,7 @@ class MacroModel:
         st = self.state
         return {"rho": st.rho, "p": st.p, "evacuated": st.evacuated, "t": st.t, "steps": st.steps,
                 **({} if st.jump is None else {"jump": st.jump}),
-                "evacuation_time": np.nan if self.evacuation_time is None else self.evacuation_time,
-                **parts(sources=self.sources, measure=self.measurements)}
+                **parts(evacuation=self.evacuation, sources=self.sources, measure=self.measurements)}
 
     def restore(self, data: dict) -> None:
         """Continue from a snapshot."""
@@ -234,8 +224,7 @@ class MacroModel:
         st.rho, st.p, st.evacuated = data["rho"].copy(), data["p"].copy(), data["evacuated"].copy()
         st.jump = data["jump"].copy() if "jump" in data else st.jump
         st.t, st.steps = float(data["t"]), int(data["steps"])
-        self.evacuation_time = None if np.isnan(data["evacuation_time"]) else float(data["evacuation_time"])
-        restore_parts(data, sources=self.sources, measure=self.measurements)
+        restore_parts(data, evacuation=self.evacuation, sources=self.sources, measure=self.measurements)
         self.inside = self.mass
 
     def open_files(self, directory, resume: bool = False) -> list:
@@ -246,4 +235,4 @@ class MacroModel:
         """What the summary adds to the recorder's entries."""
         return {"steps": self.state.steps,
                 "remaining_fraction": self.mass / self.initial_mass if self.initial_mass > 0 else 0.0,
-                "evacuation_time": self.evacuation_time, "projection_needed": self.solver.needs_projection}
+                "evacuation_time": self.evacuation.time, "projection_needed": self.solver.needs_projection}

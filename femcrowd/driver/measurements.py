@@ -28,6 +28,7 @@ import shapely
 
 from ..case import Case
 from ..errors import InputError
+from ..macro.lines import LineFlux
 from ..mesh import Domain
 from ..mesh.outline import walkable_area
 from ..micro.sampling import HEX_PACKING
@@ -125,7 +126,8 @@ def measurement_columns(lines, areas) -> list:
 
 
 class MacroMeasurements:
-    """The hooks of a macro run's measurements: the step's facet fluxes through the lines, the areas' means.
+    """The hooks of a macro run's measurements: what crossed the lines in the step (macro/lines.py), the areas'
+    means.
 
     Also keeps the maximum density of each cell over the run (the ``max_density`` cell field of the
     frames, for the level-of-service map of ``femcrowd plot``).
@@ -134,32 +136,23 @@ class MacroMeasurements:
     def __init__(self, lines, areas, domain: Domain, rho_max: float):
         self.lines, self.areas, self.domain, self.rho_max = lines, areas, domain, rho_max
         self.recorder = Recorder(measurement_columns(lines, areas))
-        self.facets = np.concatenate([line.facets for line in lines]) if lines else np.zeros(0, int)
-        self.sign = np.concatenate([line.sign for line in lines]) if lines else np.zeros(0)
-        self.owner = np.concatenate([np.full(len(line.facets), k) for k, line in enumerate(lines)]) \
-            if lines else np.zeros(0, int)
+        self.flux = LineFlux(domain, np.concatenate([line.facets for line in lines]),
+                             np.concatenate([line.sign for line in lines]),
+                             np.concatenate([np.full(len(line.facets), k) for k, line in enumerate(lines)]),
+                             len(lines)) if lines else None
         self.count = np.zeros(len(lines))
         self.max_density = None
-        self._exits, self._moved = None, None
 
     def attach(self, solver, state) -> None:
         """Register the hooks and record the initial row."""
-        solver.before_step.append(self.before_step)
+        if self.flux is not None:
+            solver.before_step.append(self.flux.before_step)
         solver.after_step.append(self.after_step)
         self.max_density = state.density * self.rho_max
         self.recorder.add(self._row(solver, state, np.zeros(len(self.lines)), 0.0))
 
-    def before_step(self, solver, state, dt: float) -> None:
-        """The transport's facet fluxes of the coming step on the lines' facets (after the sources)."""
-        self._exits = solver.boundary.at(state.t)
-        if self.lines:
-            self._moved = solver.facet_flux(state, dt)[self.facets]
-
     def after_step(self, solver, state, result) -> None:
-        moved = np.zeros(0)
-        if self.lines:
-            moved = self._moved + result["flux"].facet_flux(self.domain, self._exits)[self.facets]
-        through = np.bincount(self.owner, self.sign * moved, len(self.lines)) * self.rho_max
+        through = self.flux.after_step(result) * self.rho_max if self.flux is not None else np.zeros(0)
         self.count += through
         np.maximum(self.max_density, state.density * self.rho_max, out=self.max_density)
         self.recorder.add(self._row(solver, state, through, result["dt"]))

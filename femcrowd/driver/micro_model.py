@@ -17,11 +17,12 @@ from ..micro import MicroSimulation
 from ..micro.strategies import DesiredVelocity, View
 from .checkpoint import parts, restore_parts
 from .measurements import MicroMeasurements
+from .model import SOURCE_COLUMNS, Evacuation
 from .output import disc_frame
 from .populations import disc_populations, initial_densities
 from .recorder import Column
 from .scene import Scene, initial_discs
-from .sources import MicroSources
+from .sources import micro_arrivals
 from .trajectories import TrajectoryFile
 
 log = logging.getLogger("femcrowd")
@@ -91,17 +92,16 @@ class MicroModel:
             self.initial_counts = np.bincount(self.population, minlength=len(populations))
         self.sources = self.measurements = self.trajectories = None   # only for the scenes that have them
         if scene.sources:
-            self.sources = MicroSources(case, scene.sources, domain, case["micro"]["radius"],
+            self.sources = micro_arrivals(case, scene.sources, domain, case["micro"]["radius"],
                                         exits.segments("wall"), case["micro"]["seed"], self.names)
-            self.columns += [Column("inflow", (("inflow", "last"),)), Column("queued", (("queued", "last"),))]
-            self.last_arrival = max(source.end for source in scene.sources)
+            self.columns += SOURCE_COLUMNS
         if scene.lines or scene.areas:
             self.measurements = MicroMeasurements(scene.lines, scene.areas, case["model"]["rho_max"])
             self.measurements.start(self.sim)
         self.trajectory_rate = case["output"]["trajectory_rate"]
         scene.timing["discs"] = time.perf_counter() - tic
-        self.stop_when_empty = case["time"]["stop_when_empty"] and bool(domain.exit_group)
-        self.evacuation_time = None
+        self.evacuation = Evacuation(case["time"]["stop_when_empty"], bool(domain.exit_group), self.sources,
+                                     max((source.end for source in scene.sources), default=-np.inf))
         self.last = None   # the last step's StepInfo (positions, velocities, pressures of its discs)
         self.timers = {"step": 0.0}
 
@@ -125,7 +125,7 @@ class MicroModel:
         sim.tau = min(self.tau, until - sim.t)
         tic = time.perf_counter()
         if self.sources is not None:
-            q_in, r_in, population = self.sources.arrivals(sim.t, sim.tau, sim.q, sim.r)
+            q_in, r_in, population = self.sources(sim.t, sim.tau, sim.q, sim.r)
             sim.add(q_in, r_in)
             self.desired.population = self.population = np.concatenate([self.population, population])
         before = sim.q if self.measurements is not None else None
@@ -139,8 +139,7 @@ class MicroModel:
         if self.trajectories is not None:
             self.trajectories.step(sim.t, info.dt, info.ids, info.q, info.u)
         self.last = info
-        if info.count == 0 and self.evacuation_time is None and self.domain.exit_group:
-            self.evacuation_time = sim.t
+        self.evacuation.after_step(sim.t, info.count, 0)
         return info
 
     def row(self, info=None) -> dict:
@@ -164,8 +163,8 @@ class MicroModel:
                 for k, v in ((f"count_{name}", c), (f"evacuated_{name}", c0 - c))}
 
     def empty(self) -> bool:
-        arriving = self.sources is not None and (self.sim.t < self.last_arrival or self.sources.queued > 0)
-        return self.stop_when_empty and self.sim.count == 0 and not arriving
+        """Has every disc left (and nobody arrives any more), in a scene that stops then?"""
+        return self.evacuation.empty(self.sim.t, self.sim.count, 0)
 
     def open_files(self, directory, resume: bool = False) -> list:
         """The trajectories of the discs (PedPy's Juelich text format) and the walkable area (WKT); a resumed
@@ -191,8 +190,7 @@ class MicroModel:
         sim, last = self.sim, self.last
         pressure = last.pressure if last is not None else np.zeros(sim.count)
         return {**sim.state(), "pressure": pressure, "exits_time": self.exits_time, "population": self.population,
-                "evacuation_time": np.nan if self.evacuation_time is None else self.evacuation_time,
-                **parts(sources=self.sources, measure=self.measurements),
+                **parts(evacuation=self.evacuation, sources=self.sources, measure=self.measurements),
                 **({} if self.trajectories is None else {"trajectory_frame": self.trajectories.frame})}
 
     def restore(self, data: dict) -> None:
@@ -204,11 +202,10 @@ class MicroModel:
             self.exits, self.exits_time = exits, float(data["exits_time"])
         sim.restore(data)
         self.desired.population = self.population = data["population"].copy()
-        restore_parts(data, sources=self.sources, measure=self.measurements)
+        restore_parts(data, evacuation=self.evacuation, sources=self.sources, measure=self.measurements)
         self.resumed_frame = int(data["trajectory_frame"]) if "trajectory_frame" in data else None
-        self.evacuation_time = None if np.isnan(data["evacuation_time"]) else float(data["evacuation_time"])
         self.last = SimpleNamespace(q=sim.q, r=sim.r, u=sim.u, pressure=data["pressure"].copy())
 
     def summary(self, recorded: dict) -> dict:
         """What the summary adds to the recorder's entries."""
-        return {"steps": self.sim.nstep, "tau": self.tau, "evacuation_time": self.evacuation_time}
+        return {"steps": self.sim.nstep, "tau": self.tau, "evacuation_time": self.evacuation.time}

@@ -82,7 +82,7 @@ class Simulation:
         "failed: ..." when the loop raised (the exception goes on, after the summary is written).
         """
         case, model, domain = self.case, self.model, self.scene.domain
-        model.stop_when_empty &= stop_when_empty
+        model.evacuation.stop &= stop_when_empty
         tic = time.perf_counter()
         mesh = {"file": str(domain.source), "sha256": file_checksum(domain.source), **domain.statistics()}
         identity = checkpoint.identity(case.config, mesh["sha256"], case["model"]["type"])

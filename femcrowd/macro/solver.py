@@ -144,9 +144,9 @@ class MacroSolver:
         self.timers["projection"] += tic + result["step_seconds"] - toc   # with the state update and hooks
         return result
 
-    def facet_flux(self, state: MacroState, dt: float) -> np.ndarray:
-        """The mass each facet carries f2t[0] -> f2t[1] in the coming prediction of all populations
-        (measurement lines; their before-step hook calls it once the sources are added)."""
+    def facet_flux(self, state: MacroState, dt: float, facets=None) -> np.ndarray:
+        """The mass each facet (of `facets`, default all) carries f2t[0] -> f2t[1] in the coming prediction of all
+        populations (measurement lines; their before-step hook calls it once the sources are added)."""
         exits = self.boundary.at(state.t)
         schemes = self.transports(state, exits)
         flux = sum(scheme.facet_flux(rho, dt, *seen)
@@ -154,7 +154,7 @@ class MacroSolver:
         if exits.caps is not None:   # the doors' cap of the step (mesh/capacity.py)
             cap = exits.caps.rate * dt
             flux[exits.caps.facets] = np.clip(flux[exits.caps.facets], -cap, cap)
-        return flux
+        return flux if facets is None else flux[facets]
 
     @staticmethod
     def _seen(state: MacroState, schemes):

@@ -1,0 +1,59 @@
+"""People arriving through boundary facets (``[[sources]]``, docs/scenes.md): the mass that enters the density,
+a hook of MacroSolver before each prediction.
+
+Each source facet e brings rate_e |[t, t + dt] & [start, end]| into its queue during a step (rate_e = flow x
+|e|, in units of rho_max x m^2 per second). What fits enters the cell K behind e, up to its room
+|K| (1 - rho_K) shared in proportion to the queues of the facets of K; the rest waits outside and enters at
+a later step. Hence, per step and exactly, arrived = inflow + queued, and
+mass(t) + evacuated(t) = mass(0) + inflow(t).
+"""
+
+import numpy as np
+
+
+class Inflow:
+    """The before_step hook of a macro run's sources: each source facet's cell, rate (mass per second) and
+    population, the span [start, end] of each source (``owner``: the source of each facet); inflow and queued in
+    units of rho_max x m^2."""
+
+    def __init__(self, domain, facets, owner, rate, population, spans, populations: int):
+        self.domain = domain
+        self.cells = domain.f2t[0][facets]
+        self.owner, self.rate, self.population = owner, rate, population
+        self.start, self.end = np.asarray(spans, float).reshape(-1, 2).T
+        self.target = population * domain.ncells + self.cells   # flat index into rho (populations, cells)
+        self.queue = np.zeros(len(facets))
+        self.arrived = np.zeros(populations)   # per population
+
+    def __call__(self, solver, state, dt: float) -> None:
+        """Add what arrives during [t, t + dt] and fits to state.rho; the rest stays queued."""
+        windows = np.maximum(0.0, np.minimum(state.t + dt, self.end) - np.maximum(state.t, self.start))
+        self.queue += self.rate * windows[self.owner]
+        if not self.queue.any():
+            return
+        n = self.domain.ncells
+        area = self.domain.area
+        demand = np.bincount(self.cells, self.queue, n)
+        room = np.maximum(area * (1.0 - state.density), 0.0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            fraction = np.where(demand > room, room / demand, 1.0)
+        enter = self.queue * fraction[self.cells]
+        self.queue -= enter
+        rho = state.rho.reshape(-1)   # a view: (populations, cells) flattened
+        rho += np.bincount(self.target, enter, rho.size) / np.tile(area, len(state.rho))
+        self.arrived += np.bincount(self.population, enter, len(self.arrived))
+
+    @property
+    def inflow(self) -> float:
+        """What entered so far, all populations."""
+        return float(self.arrived.sum())
+
+    @property
+    def queued(self) -> float:
+        return float(self.queue.sum())
+
+    def snapshot(self) -> dict:
+        return {"queue": self.queue.copy(), "arrived": self.arrived.copy()}
+
+    def restore(self, data: dict) -> None:
+        self.queue, self.arrived = data["queue"].copy(), data["arrived"].copy()
