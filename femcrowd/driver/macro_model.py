@@ -1,6 +1,5 @@
 """The macro model as the driver runs it: its state and solver, its diagnostics table, its frames."""
 
-import time
 
 import numpy as np
 
@@ -10,7 +9,7 @@ from ..macro import MacroSolver, MacroState
 from ..macro.diagnostics import invariants, population_invariants
 from .checkpoint import parts, restore_parts
 from .measurements import MacroMeasurements
-from .model import SOURCE_COLUMNS, Evacuation
+from .model import SOURCE_COLUMNS, Evacuation, landing
 from .output import triangle_frame
 from .populations import initial_densities
 from .recorder import Column
@@ -81,23 +80,22 @@ class MacroModel:
         self.scene, self.domain = scene, domain
         self.rho_max = case["model"]["rho_max"]
         self.fields = case["output"]["fields"]
-        tic = time.perf_counter()
-        populations = scene.populations
-        laws = [p.law for p in populations]
-        if case["scheme"]["transport"] != "upwind" and not all(law.constant for law in laws):
-            raise InputError(case.file, "scheme.transport", case["scheme"]["transport"],
-                             "a speed law is transported with the order-0 LWR fluxes: use 'upwind'")
-        self.state = MacroState.initial(initial_densities(case, domain), len(domain.exit_names),
-                                        [p.name for p in populations])
-        self.solver = MacroSolver(domain, scene.boundary, [p.velocity for p in populations],
-                                  case["scheme"]["transport"], case["time"]["cfl"], case["time"]["dt"],
-                                  case["projection"]["direct_max"], case["projection"]["tol"], laws)
-        exits = scene.boundary.at(0.0)
-        if self.solver.needs_projection:
-            self.solver.projection(exits)
-        schemes = self.solver.transports(self.state, exits)
-        check_transport_cfl(case, min(schemes, key=lambda s: s.max_cfl * s.max_dt))
-        scene.timing["assembly"] = time.perf_counter() - tic
+        with scene.timer("assembly"):
+            populations = scene.populations
+            laws = [p.law for p in populations]
+            if case["scheme"]["transport"] != "upwind" and not all(law.constant for law in laws):
+                raise InputError(case.file, "scheme.transport", case["scheme"]["transport"],
+                                 "a speed law is transported with the order-0 LWR fluxes: use 'upwind'")
+            self.state = MacroState.initial(initial_densities(case, domain), len(domain.exit_names),
+                                            [p.name for p in populations])
+            self.solver = MacroSolver(domain, scene.boundary, [p.velocity for p in populations],
+                                      case["scheme"]["transport"], case["time"]["cfl"], case["time"]["dt"],
+                                      case["projection"]["direct_max"], case["projection"]["tol"], laws)
+            exits = scene.boundary.at(0.0)
+            if self.solver.needs_projection:
+                self.solver.projection(exits)
+            schemes = self.solver.transports(self.state, exits)
+            check_transport_cfl(case, min(schemes, key=lambda s: s.max_cfl * s.max_dt))
         self.initial_mass = self.inside = self.mass
         self.empty_fraction = case["time"]["empty_fraction"]
         self.columns = macro_columns(domain.exit_names)
@@ -140,9 +138,10 @@ class MacroModel:
         return self.solver.timers
 
     def step(self, until: float) -> dict:
-        """One step, not beyond `until`; the solver's diagnostics of it. Notes the mass inside (the empty check)
-        and the evacuation time (the first time less than empty_mass is inside, nobody arriving)."""
-        info = self.solver.step(self.state, until)
+        """One step, not beyond `until` nor the next door change; the solver's diagnostics of it. Notes the mass
+        inside (the empty check) and the evacuation time (the first time less than empty_mass is inside, nobody
+        arriving)."""
+        info = self.solver.step(self.state, landing(self.scene.boundary, self.t, until))
         self.inside = self.mass
         self.evacuation.after_step(self.t, self.inside, self.empty_mass)
         return info

@@ -8,16 +8,16 @@ radii per step).
 """
 
 import logging
-import time
 from types import SimpleNamespace
 
 import numpy as np
 
 from ..micro import MicroSimulation
 from ..micro.strategies import DesiredVelocity, View
+from ..timer import Timer
 from .checkpoint import parts, restore_parts
 from .measurements import MicroMeasurements
-from .model import SOURCE_COLUMNS, Evacuation
+from .model import SOURCE_COLUMNS, Evacuation, landing
 from .output import disc_frame
 from .populations import disc_populations, initial_densities
 from .recorder import Column
@@ -63,47 +63,46 @@ class MicroModel:
         if boundary.capped:
             log.warning("%s: the disc model has no door capacity: [boundary.capacity] is not used (how many discs "
                         "pass a door follows from the discs)", case.file)
-        tic = time.perf_counter()
-        exits = self.exits = boundary.at(0.0)
-        rho = initial_densities(case, domain)
-        q, r = initial_discs(case, domain, exits, rho.sum(axis=0) if len(rho) > 1 else None)
-        populations = scene.populations
-        speed = max(np.hypot(*p.velocity.at_points(domain.centroid, 0.0, exits).T).max() for p in populations)
-        self.r_min = float(r.min()) if len(r) else float(np.min(case["micro"]["radius"]))
-        tau = case["time"]["dt"]
-        if tau is None:
-            tau = case["time"]["cfl"] * self.r_min / speed if speed > 0 else case["output"]["every"]
-        self.tau = tau
-        spec = case["micro"]
-        self.population = disc_populations(case, domain, rho, q)
-        self.names = [p.name for p in populations]
-        desired = DesiredVelocity([lambda xy, t, v=p.velocity: v.at_points(xy, t, boundary.at(t))
-                                   for p in populations],
-                                  self.population, [p.law for p in populations], spec["strategy"],
-                                  View(spec["view_distance"], spec["view_angle"]))
-        self.sim = MicroSimulation(q, r, exits.segments("wall"), exits.segments("exit"), desired, tau,
-                                   method=spec["method"], fluctuation=spec["fluctuation"], seed=spec["seed"])
-        self.exits_time = 0.0   # a time at which the walls and exits of the discs are self.exits
-        desired.sim = self.sim
-        self.desired, self.initial_count = desired, len(q)
-        self.columns = list(MICRO_COLUMNS)
-        if len(populations) > 1:
-            self.columns += population_columns(self.names)
-            self.initial_counts = np.bincount(self.population, minlength=len(populations))
-        self.sources = self.measurements = self.trajectories = None   # only for the scenes that have them
-        if scene.sources:
-            self.sources = micro_arrivals(case, scene.sources, domain, case["micro"]["radius"],
-                                        exits.segments("wall"), case["micro"]["seed"], self.names)
-            self.columns += SOURCE_COLUMNS
-        if scene.lines or scene.areas:
-            self.measurements = MicroMeasurements(scene.lines, scene.areas, case["model"]["rho_max"])
-            self.measurements.start(self.sim)
-        self.trajectory_rate = case["output"]["trajectory_rate"]
-        scene.timing["discs"] = time.perf_counter() - tic
+        with scene.timer("discs"):
+            exits = self.exits = boundary.at(0.0)
+            rho = initial_densities(case, domain)
+            q, r = initial_discs(case, domain, exits, rho.sum(axis=0) if len(rho) > 1 else None)
+            populations = scene.populations
+            speed = max(np.hypot(*p.velocity.at_points(domain.centroid, 0.0, exits).T).max() for p in populations)
+            self.r_min = float(r.min()) if len(r) else float(np.min(case["micro"]["radius"]))
+            tau = case["time"]["dt"]
+            if tau is None:
+                tau = case["time"]["cfl"] * self.r_min / speed if speed > 0 else case["output"]["every"]
+            self.tau = tau
+            spec = case["micro"]
+            self.population = disc_populations(case, domain, rho, q)
+            self.names = [p.name for p in populations]
+            desired = DesiredVelocity([lambda xy, t, v=p.velocity: v.at_points(xy, t, boundary.at(t))
+                                       for p in populations],
+                                      self.population, [p.law for p in populations], spec["strategy"],
+                                      View(spec["view_distance"], spec["view_angle"]))
+            self.sim = MicroSimulation(q, r, exits.segments("wall"), exits.segments("exit"), desired, tau,
+                                       method=spec["method"], fluctuation=spec["fluctuation"], seed=spec["seed"])
+            self.exits_time = 0.0   # a time at which the walls and exits of the discs are self.exits
+            desired.sim = self.sim
+            self.desired, self.initial_count = desired, len(q)
+            self.columns = list(MICRO_COLUMNS)
+            if len(populations) > 1:
+                self.columns += population_columns(self.names)
+                self.initial_counts = np.bincount(self.population, minlength=len(populations))
+            self.sources = self.measurements = self.trajectories = None   # only for the scenes that have them
+            if scene.sources:
+                self.sources = micro_arrivals(case, scene.sources, domain, case["micro"]["radius"],
+                                            exits.segments("wall"), case["micro"]["seed"], self.names)
+                self.columns += SOURCE_COLUMNS
+            if scene.lines or scene.areas:
+                self.measurements = MicroMeasurements(scene.lines, scene.areas, case["model"]["rho_max"])
+                self.measurements.start(self.sim)
+            self.trajectory_rate = case["output"]["trajectory_rate"]
         self.evacuation = Evacuation(case["time"]["stop_when_empty"], bool(domain.exit_group), self.sources,
                                      max((source.end for source in scene.sources), default=-np.inf))
         self.last = None   # the last step's StepInfo (positions, velocities, pressures of its discs)
-        self.timers = {"step": 0.0}
+        self.timers = Timer()
 
     @property
     def t(self) -> float:
@@ -115,22 +114,22 @@ class MicroModel:
         return self.sim
 
     def step(self, until: float):
-        """One step, not beyond `until` (a shorter one lands exactly on it); its StepInfo."""
+        """One step, not beyond `until` nor the next door change (a shorter one lands exactly on it); its
+        StepInfo."""
         sim = self.sim
-        until = min(until, self.boundary.next_change(sim.t))   # steps land on the door changes
+        until = landing(self.boundary, sim.t, until)
         exits = self.boundary.at(sim.t)
         if exits is not self.exits:   # a door closed or opened: walls and exits follow
             sim.set_boundary(exits.segments("wall"), exits.segments("exit"))
             self.exits, self.exits_time = exits, sim.t
         sim.tau = min(self.tau, until - sim.t)
-        tic = time.perf_counter()
-        if self.sources is not None:
-            q_in, r_in, population = self.sources(sim.t, sim.tau, sim.q, sim.r)
-            sim.add(q_in, r_in)
-            self.desired.population = self.population = np.concatenate([self.population, population])
-        before = sim.q if self.measurements is not None else None
-        info = sim.step()
-        self.timers["step"] += time.perf_counter() - tic
+        with self.timers("step"):
+            if self.sources is not None:
+                q_in, r_in, population = self.sources(sim.t, sim.tau, sim.q, sim.r)
+                sim.add(q_in, r_in)
+                self.desired.population = self.population = np.concatenate([self.population, population])
+            before = sim.q if self.measurements is not None else None
+            info = sim.step()
         if until - sim.t < 1e-12 * max(1.0, until):
             sim.t = until
         sim.tau = self.tau

@@ -4,7 +4,9 @@ Controller sees it; JuPedSim's model facades over one interface), and what they 
 - :class:`Model`: what the time loop (loop.py), the run (run.py) and the studies use of a model;
 - :class:`Evacuation`: when the crowd has left, and when it left (the evacuation time), the same rule for a
   density and for discs: less than a threshold inside while nobody arrives any more;
-- :data:`SOURCE_COLUMNS`: the history columns of a run with ``[[sources]]``.
+- :data:`SOURCE_COLUMNS`: the history columns of a run with ``[[sources]]``;
+- :func:`landing`: the time a step must not pass: the caller's (frames, stops, the end: loop.py) and the next
+  change of the doors, on which the steps of both models land.
 """
 
 from typing import Protocol
@@ -58,6 +60,11 @@ class Model(Protocol):
 
     def summary(self, recorded: dict) -> dict:
         """What the summary adds to the recorder's entries."""
+
+
+def landing(boundary, t: float, until: float) -> float:
+    """The time a step from t must not pass: `until`, or the next change of the doors' schedule if sooner."""
+    return min(until, boundary.next_change(t))
 
 
 class Evacuation:

@@ -18,13 +18,14 @@ from .. import __version__
 from ..case import Case
 from ..linalg.threads import thread_limit
 from ..mesh import Domain, file_checksum
+from ..timer import Timer
 from . import checkpoint
-from .loop import drive
+from .loop import Controller
 from .macro_model import MacroModel
 from .micro_model import MicroModel
-from .output import FrameSeries, HistoryFile, copy_case, prepare_output_dir, write_json
 from .recorder import Recorder
 from .scene import build_scene
+from .sink import RunFiles
 
 log = logging.getLogger("femcrowd")
 
@@ -65,11 +66,12 @@ class Simulation:
     def __init__(self, case: Case, threads: int = 1):
         self._wall = time.perf_counter()
         self.case, self.threads = case, threads
+        self.timer = Timer()   # the run's own phases: output and recording (the model times its steps)
         with thread_limit(threads):
             self.threads_seconds = time.perf_counter() - self._wall  # finding the pools, once per process
             self.scene = build_scene(case)
             self.model = MODELS[case["model"]["type"]](self.scene)
-        log.info("set up %s: %s", case.file, ", ".join(f"{k} {v:.3g} s" for k, v in self.scene.timing.items()))
+        log.info("set up %s: %s", case.file, ", ".join(f"{k} {v:.3g} s" for k, v in self.scene.timer.items()))
 
     def run(self, out=None, force: bool = False, quiet: bool = True, stops=(), on_stop=None,
             stop_when_empty: bool = True, resume: bool = False) -> Result:
@@ -83,79 +85,44 @@ class Simulation:
         """
         case, model, domain = self.case, self.model, self.scene.domain
         model.evacuation.stop &= stop_when_empty
-        tic = time.perf_counter()
-        mesh = {"file": str(domain.source), "sha256": file_checksum(domain.source), **domain.statistics()}
-        identity = checkpoint.identity(case.config, mesh["sha256"], case["model"]["type"])
-        recorder, position = Recorder(model.columns), {}
-        if resume:  # checked before anything is written
-            state, rows, position = checkpoint.read(out, identity)
-            model.restore(state)
-            recorder.restore(rows)
-            out_dir = Path(out)
-        else:
-            out_dir = prepare_output_dir(out, case.file, force) if out is not None else None
-        frames = None
-        measured = model.measurements.recorder if model.measurements is not None else None
-        sinks = []
-        if out_dir is not None:
-            copy_case(case.file, out_dir)
-            frames = FrameSeries(out_dir, model.stem, position.get("frames"))
-            history = recorder.sink = HistoryFile(out_dir / "history.csv", recorder.history_columns,
-                                                  recorder.records())
-            sinks.append(history)
-            if measured is not None:   # the rows recorded so far first, then one per step
-                measured.sink = HistoryFile(out_dir / "measurements.csv", measured.history_columns,
-                                            measured.records())
-                sinks.append(measured.sink)
-            sinks += model.open_files(out_dir, resume)   # e.g. the disc trajectories
-        summary = {"femcrowd": __version__, "status": "running", "case": case.config,
-                   "case_file": str(case.file), "output_dir": str(out_dir) if out_dir else None, "mesh": mesh}
-        timers = {"output": time.perf_counter() - tic}  # output directory, mesh checksum and statistics
-
-        def timing():
-            """Seconds per phase (summed over the parts of a resumed run) and the wall time."""
-            now = {"threads": self.threads_seconds, **self.scene.timing, **dict(model.timers), **timers,
-                   "wall": time.perf_counter() - self._wall}
-            before = position.get("timing", {})
-            return {k: before.get(k, 0.0) + now.get(k, 0.0) for k in {**before, **now}}
-
-        def write_frame():
-            if frames is not None:
-                tic = time.perf_counter()
-                frames.write(model.t, model.frame())
-                timers["output"] += time.perf_counter() - tic
-
-        def write_checkpoint(next_frame):
-            tic = time.perf_counter()
-            checkpoint.write(out_dir, identity, model.snapshot(), recorder.rows,
-                             {"frames": frames.frames, "next_frame": next_frame, "timing": timing()})
-            timers["output"] += time.perf_counter() - tic
-
-        def finish(status):
-            tic = time.perf_counter()
-            for sink in sinks:
-                sink.close()
-            recorded = recorder.summary()
-            summary.update(status=status, **recorded, **model.summary(recorded))
-            timers["output"] += time.perf_counter() - tic
-            summary["timing"] = timing()
-            if out_dir is not None:
-                write_json(out_dir / "summary.json", summary)
-            return Result(summary, recorder.history(), model, out_dir,
-                          measured.history() if measured is not None else None)
-
+        with self.timer("output"):   # the mesh's checksum and statistics, the output directory
+            mesh = {"file": str(domain.source), "sha256": file_checksum(domain.source), **domain.statistics()}
+            recorder = Recorder(model.columns)
+            files, position = RunFiles.open(out, case, model, recorder,
+                                            checkpoint.identity(case.config, mesh["sha256"], case["model"]["type"]),
+                                            self.timer, lambda: self._timing(position), force, resume)
+        summary = {"femcrowd": __version__, "status": "running", "case": case.config, "case_file": str(case.file),
+                   "output_dir": str(files.directory) if files.directory else None, "mesh": mesh}
+        controller = Controller(case["time"]["end"], case["output"]["every"], stops, on_stop, quiet)
         try:
             with thread_limit(self.threads):
-                drive(model, recorder, case["time"]["end"], case["output"]["every"], write_frame,
-                      stops, on_stop, quiet, timers, write_checkpoint if out_dir is not None else None,
-                      position.get("next_frame"))
+                controller.run(model, recorder, files, self.timer, position.get("next_frame"))
         except KeyboardInterrupt:
-            finish("interrupted")
+            self._finish(files, recorder, summary, "interrupted", position)
             raise
         except Exception as err:
-            finish(f"failed: {type(err).__name__}: {err}")
+            self._finish(files, recorder, summary, f"failed: {type(err).__name__}: {err}", position)
             raise
-        return finish("completed")
+        return self._finish(files, recorder, summary, "completed", position)
+
+    def _timing(self, position) -> dict:
+        """Seconds per phase (summed over the parts of a resumed run) and the wall time."""
+        now = {"threads": self.threads_seconds, **dict(self.scene.timer.items()), **dict(self.model.timers.items()),
+               **dict(self.timer.items()), "wall": time.perf_counter() - self._wall}
+        before = position.get("timing", {})
+        return {k: before.get(k, 0.0) + now.get(k, 0.0) for k in {**before, **now}}
+
+    def _finish(self, files, recorder, summary, status, position) -> Result:
+        """Close the files, write summary.json; the Result."""
+        files.close()
+        with self.timer("output"):
+            recorded = recorder.summary()
+            summary.update(status=status, **recorded, **self.model.summary(recorded))
+        summary["timing"] = self._timing(position)
+        files.summary(summary)
+        measured = self.model.measurements.recorder if self.model.measurements is not None else None
+        return Result(summary, recorder.history(), self.model, files.directory,
+                      measured.history() if measured is not None else None)
 
 
 def run(case: Case, out=None, force: bool = False, quiet: bool = True, files: bool = True,

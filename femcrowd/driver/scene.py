@@ -6,7 +6,6 @@ checked here, before the output directory is touched, so a bad case never overwr
 """
 
 import difflib
-import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -15,6 +14,7 @@ from ..case import Case
 from ..errors import InputError
 from ..mesh import Boundary, Domain, load_domain
 from ..micro.sampling import read_discs_csv, sample_discs
+from ..timer import Timer
 from .measurements import read_measurements
 from .populations import build_populations, initial_density
 from .sources import read_sources
@@ -22,14 +22,14 @@ from .sources import read_sources
 
 @dataclass
 class Scene:
-    """The case, its domain, the doors over time (boundary), the set-up times, the populations
+    """The case, its domain, the doors over time (boundary), the set-up phases' timer, the populations
     (driver/populations.py: desired velocity and speed law of each), and the sources, measurement lines and
     areas (empty lists when the case has none)."""
 
     case: Case
     domain: Domain
     boundary: Boundary
-    timing: dict = field(default_factory=dict)
+    timer: Timer = field(default_factory=Timer)
     populations: list = field(default_factory=list)
     sources: list = field(default_factory=list)
     lines: list = field(default_factory=list)
@@ -38,16 +38,16 @@ class Scene:
 
 def build_scene(case: Case) -> Scene:
     """Load the mesh and build the desired velocity of each population (timed: mesh, desired_velocity)."""
-    tic = time.perf_counter()
-    domain = load_domain(case.path(case["mesh"]["file"]), case["boundary"]["exits"],
-                         case["mesh"]["refine"], case.file)
-    boundary = Boundary(domain, door_schedule(case, domain), door_capacity(case, domain))
-    sources = read_sources(case, domain)
-    lines, areas = read_measurements(case, domain)
-    toc = time.perf_counter()
-    populations = build_populations(case, domain, boundary)
-    return Scene(case, domain, boundary, {"mesh": toc - tic, "desired_velocity": time.perf_counter() - toc},
-                 populations, sources, lines, areas)
+    timer = Timer()
+    with timer("mesh"):
+        domain = load_domain(case.path(case["mesh"]["file"]), case["boundary"]["exits"],
+                             case["mesh"]["refine"], case.file)
+        boundary = Boundary(domain, door_schedule(case, domain), door_capacity(case, domain))
+        sources = read_sources(case, domain)
+        lines, areas = read_measurements(case, domain)
+    with timer("desired_velocity"):
+        populations = build_populations(case, domain, boundary)
+    return Scene(case, domain, boundary, timer, populations, sources, lines, areas)
 
 
 def door_schedule(case: Case, domain: Domain) -> dict:

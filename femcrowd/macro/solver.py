@@ -17,10 +17,10 @@ by an implicit upwind split of its facet fluxes (populations.py).
 """
 
 import time
-from collections import defaultdict
 
 import numpy as np
 
+from ..timer import Timer
 from .populations import split_correction
 from .projection import CellOrder, PressureFlux, Projection
 from .reconstruction import actual_velocity
@@ -52,7 +52,7 @@ class MacroSolver:
         self.direct_max, self.tol = direct_max, tol
         self.order = CellOrder()  # one nested-dissection order for the projections of every set of exits
         self.before_step, self.after_step = [], []
-        self.timers = defaultdict(float)
+        self.timers = Timer()
         self._projections = {}    # per set of open exits: (Projection, outflow matrix of the pressure flux)
         self._transports = None   # (exits, t, one transport per population)
         self._open = None         # the open exits of the last projection (a door that changed: no warm start)
@@ -98,18 +98,28 @@ class MacroSolver:
         return min(self.fixed_dt, min(s.max_cfl * s.max_dt for s in schemes), max_dt)
 
     def step(self, state: MacroState, until: float = np.inf) -> dict:
-        """Advance the state by one step, not beyond time ``until``; return the step's diagnostics
-        (dt, active_set_iterations, linear_residual, unknowns, step_seconds, the projection's info)."""
+        """Advance the state by one step, not beyond time ``until`` (a shorter step lands on it: the controller
+        passes the frame times and the door changes); return the step's diagnostics (dt, active_set_iterations,
+        linear_residual, unknowns, step_seconds, the projection's info, the doors' flows)."""
         tic = time.perf_counter()
-        exits = self.boundary.at(state.t)
-        schemes = self.transports(state, exits)
-        dt = self.stable_dt(state)
-        until = min(until, self.boundary.next_change(state.t))   # steps land on the door changes
-        t_new = state.t + dt
-        if t_new >= until:
-            dt, t_new = until - state.t, until
-        for hook in self.before_step:
-            hook(self, state, dt)
+        with self.timers("transport"):   # with the step's set-up and the hooks before it
+            exits = self.boundary.at(state.t)
+            schemes = self.transports(state, exits)
+            dt = self.stable_dt(state)
+            t_new = state.t + dt
+            if t_new >= until:
+                dt, t_new = until - state.t, until
+            for hook in self.before_step:
+                hook(self, state, dt)
+            rho_tilde, outflow, passed = self._predict(state, schemes, exits, dt)
+        with self.timers("projection"):   # with the state update and the hooks after it
+            result = self._correct_step(state, rho_tilde, outflow, passed, exits, dt, t_new)
+            result["step_seconds"] = time.perf_counter() - tic
+        return result
+
+    def _predict(self, state, schemes, exits, dt):
+        """rho~ of each population, the mass out through each exit and the net mass through the capped doors
+        (capped by the doors, mesh/capacity.py)."""
         rho_tilde = np.empty_like(state.rho)
         outflow = np.zeros_like(state.evacuated)
         caps = exits.caps
@@ -117,7 +127,12 @@ class MacroSolver:
         for i, (scheme, seen) in enumerate(zip(schemes, self._seen(state, schemes))):
             rho_tilde[i], outflow[i], through[i] = scheme.step(state.rho[i], dt, *seen)
         passed = None if caps is None else caps.limit(rho_tilde, outflow, through, dt, self.domain.area)
-        toc = time.perf_counter()
+        return rho_tilde, outflow, passed
+
+    def _correct_step(self, state, rho_tilde, outflow, passed, exits, dt, t_new) -> dict:
+        """The correction of the step and the new state; the step's diagnostics (the after_step hooks run on
+        them)."""
+        caps = exits.caps
         if self.needs_projection:
             total = rho_tilde[0] if len(rho_tilde) == 1 else rho_tilde.sum(axis=0)
             flux, info = self.projection(exits)(total, None if caps is None else caps.room(passed, dt))
@@ -139,9 +154,6 @@ class MacroSolver:
             result["doors"] = caps.report(passed, flux.facet_flux(self.domain, exits, caps.facets), flux.door, dt)
         for hook in self.after_step:
             hook(self, state, result)
-        result["step_seconds"] = time.perf_counter() - tic
-        self.timers["transport"] += toc - tic                             # with the step's set-up and hooks
-        self.timers["projection"] += tic + result["step_seconds"] - toc   # with the state update and hooks
         return result
 
     def facet_flux(self, state: MacroState, dt: float, facets=None) -> np.ndarray:
