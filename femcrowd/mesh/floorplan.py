@@ -320,56 +320,8 @@ def build_mesh(geometry_file, out=None, refine_exits=None, gmsh_options=None, ca
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add(geometry_file.stem)
-        geo = gmsh.model.geo
-        curve_loops, groups, exit_curves = [], defaultdict(list), defaultdict(list)
-        ends = np.array([end for door in doors for end in door[:2]]).reshape(-1, 2)
-        corners = []   # (x, y, tag) of the boundary points, where the doors' ends may join them
-        for pts, labels, ids in _split(loops, exits, tol, ends):
-            tags = [geo.addPoint(x, y, 0) for x, y in pts]
-            corners += [(x, y, tag) for (x, y), tag in zip(pts, tags)]
-            lines = [geo.addLine(s, e) for s, e in zip(tags, tags[1:] + tags[:1])]
-            curve_loops.append(geo.addCurveLoop(lines))
-            for line, label, k in zip(lines, labels, ids):
-                groups[label].append(line)
-                if k is not None:
-                    exit_curves[k].append(line)
-        for _, c, r in circles:
-            centre = geo.addPoint(*c, 0)
-            rim = [geo.addPoint(*(c + r * np.array([np.cos(a), np.sin(a)])), 0) for a in np.pi / 2 * np.arange(4)]
-            arcs = [geo.addCircleArc(s, centre, e) for s, e in zip(rim, rim[1:] + rim[:1])]
-            curve_loops.append(geo.addCurveLoop(arcs))
-            groups["wall"] += arcs
-        surface = geo.addPlaneSurface(curve_loops)
-        door_lines = []
-        for start, end, name in doors:
-            tags = [next((tag for x, y, tag in corners if np.hypot(x - p[0], y - p[1]) <= tol), None)
-                    or geo.addPoint(p[0], p[1], 0) for p in (start, end)]
-            door_lines.append(geo.addLine(*tags))
-            groups[name].append(door_lines[-1])
-        geo.synchronize()
-        if door_lines:
-            gmsh.model.mesh.embed(1, door_lines, 2, surface)
-        for name, curves in groups.items():
-            gmsh.model.addPhysicalGroup(1, curves, name=name)
-        gmsh.model.addPhysicalGroup(2, [surface], name="domain")
-
-        # local size near exits: h at the exit, growing linearly to `size`
-        fields = []
-        for k, (*_, h, length) in enumerate(exits):
-            h = refine_exits or h
-            if h is None or h >= size:
-                continue
-            dist = gmsh.model.mesh.field.add("Distance")
-            gmsh.model.mesh.field.setNumbers(dist, "CurvesList", exit_curves[k])
-            gmsh.model.mesh.field.setNumber(dist, "Sampling", int(np.ceil(4 * length / h)) + 20)
-            fields.append(gmsh.model.mesh.field.add("Threshold"))
-            for option, value in [("InField", dist), ("SizeMin", h), ("SizeMax", size),
-                                  ("DistMin", 2 * h), ("DistMax", 2 * h + 5 * (size - h))]:
-                gmsh.model.mesh.field.setNumber(fields[-1], option, value)
-        if fields:
-            smallest = gmsh.model.mesh.field.add("Min")
-            gmsh.model.mesh.field.setNumbers(smallest, "FieldsList", fields)
-            gmsh.model.mesh.field.setAsBackgroundMesh(smallest)
+        exit_curves = _geometry(loops, circles, exits, doors, tol)
+        _exit_sizes(exits, exit_curves, size, refine_exits)
         options = {"Mesh.MeshSizeMax": size, "Mesh.MeshSizeFromPoints": 0, "Mesh.MeshSizeExtendFromBoundary": 0,
                    "Mesh.Algorithm": 6, "Mesh.Smoothing": 5, "Mesh.MshFileVersion": 2.2, "Mesh.Binary": 0}
         for option, value in {**options, **(gmsh_options or {})}.items():
@@ -380,3 +332,62 @@ def build_mesh(geometry_file, out=None, refine_exits=None, gmsh_options=None, ca
     finally:
         gmsh.finalize()
     return out
+
+
+def _geometry(loops, circles, exits, doors, tol) -> dict:
+    """The plan in gmsh's geo kernel: the boundary loops split at the exits and at the doors' ends, the circle
+    holes, the doors embedded in the surface; one physical line group per exit and door name, "wall" for the
+    rest, the surface "domain". Returns the curves of each exit (by its index)."""
+    geo = gmsh.model.geo
+    curve_loops, groups, exit_curves = [], defaultdict(list), defaultdict(list)
+    ends = np.array([end for door in doors for end in door[:2]]).reshape(-1, 2)
+    corners = []   # (x, y, tag) of the boundary points, where the doors' ends may join them
+    for pts, labels, ids in _split(loops, exits, tol, ends):
+        tags = [geo.addPoint(x, y, 0) for x, y in pts]
+        corners += [(x, y, tag) for (x, y), tag in zip(pts, tags)]
+        lines = [geo.addLine(s, e) for s, e in zip(tags, tags[1:] + tags[:1])]
+        curve_loops.append(geo.addCurveLoop(lines))
+        for line, label, k in zip(lines, labels, ids):
+            groups[label].append(line)
+            if k is not None:
+                exit_curves[k].append(line)
+    for _, c, r in circles:
+        centre = geo.addPoint(*c, 0)
+        rim = [geo.addPoint(*(c + r * np.array([np.cos(a), np.sin(a)])), 0) for a in np.pi / 2 * np.arange(4)]
+        arcs = [geo.addCircleArc(s, centre, e) for s, e in zip(rim, rim[1:] + rim[:1])]
+        curve_loops.append(geo.addCurveLoop(arcs))
+        groups["wall"] += arcs
+    surface = geo.addPlaneSurface(curve_loops)
+    door_lines = []
+    for start, end, name in doors:
+        tags = [next((tag for x, y, tag in corners if np.hypot(x - p[0], y - p[1]) <= tol), None)
+                or geo.addPoint(p[0], p[1], 0) for p in (start, end)]
+        door_lines.append(geo.addLine(*tags))
+        groups[name].append(door_lines[-1])
+    geo.synchronize()
+    if door_lines:
+        gmsh.model.mesh.embed(1, door_lines, 2, surface)
+    for name, curves in groups.items():
+        gmsh.model.addPhysicalGroup(1, curves, name=name)
+    gmsh.model.addPhysicalGroup(2, [surface], name="domain")
+    return exit_curves
+
+
+def _exit_sizes(exits, exit_curves, size, refine_exits) -> None:
+    """The cell size near the exits: h at an exit (its own `size`, or refine_exits), growing linearly to `size`."""
+    fields = []
+    for k, (*_, h, length) in enumerate(exits):
+        h = refine_exits or h
+        if h is None or h >= size:
+            continue
+        dist = gmsh.model.mesh.field.add("Distance")
+        gmsh.model.mesh.field.setNumbers(dist, "CurvesList", exit_curves[k])
+        gmsh.model.mesh.field.setNumber(dist, "Sampling", int(np.ceil(4 * length / h)) + 20)
+        fields.append(gmsh.model.mesh.field.add("Threshold"))
+        for option, value in [("InField", dist), ("SizeMin", h), ("SizeMax", size),
+                              ("DistMin", 2 * h), ("DistMax", 2 * h + 5 * (size - h))]:
+            gmsh.model.mesh.field.setNumber(fields[-1], option, value)
+    if fields:
+        smallest = gmsh.model.mesh.field.add("Min")
+        gmsh.model.mesh.field.setNumbers(smallest, "FieldsList", fields)
+        gmsh.model.mesh.field.setAsBackgroundMesh(smallest)

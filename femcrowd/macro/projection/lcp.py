@@ -135,6 +135,21 @@ class Projection:
             S, x0, updated = self.warm.first_update(over, b, strict, self._next)
             if updated:
                 spills, tight = 1, self.sets.changed(self.warm.active, S) <= TIGHT_SWITCH * len(S)
+        S, phi_S, L, Aphi = self._iterate(S, x0, b, strict, spills, tight, info)
+        self.warm.remember(S, phi_S)
+        phi = np.zeros_like(b)
+        phi[S] = phi_S
+        info["unknowns"] = len(S)
+        info["active_set"] = time.perf_counter() - tic - info["detect"] - info["predict"] - info["setup"] \
+            - info["solve"]
+        if self.caps is None:
+            return PressureFlux(phi, L, Aphi), info
+        cells, door = L < self.ncells, phi[self.ncells:]
+        return PressureFlux(phi[:self.ncells], L[cells], Aphi[cells], door, self.caps.jumps(door)), info
+
+    def _iterate(self, S, x0, b, strict, spills, tight, info):
+        """The primal-dual active-set iterations from the guess S (x0: phi on it) until S is reproduced by a tight
+        solve: (S, phi on S, its neighbourhood L, A phi on L); info counts the iterations."""
         for iteration in range(1, self.max_iterations + 1):
             rows = self.A[S]
             L, col, in_S, s_in_L = self.sets.neighbourhood(rows, S)
@@ -145,10 +160,11 @@ class Projection:
             w = b[L] + Aphi
             # the residual of the linear solve (w = 0 on S but in the gauge cells of closed rooms)
             info["linear_residual"] = float(np.max(np.abs(w[s_in_L][keep]) / self.area[S[keep]], initial=0.0))
+            info["iterations"] = iteration
             new = self._next(S, phi_S, w, strict, L, in_S, s_in_L)
             if np.array_equal(new, S):
                 if tight:
-                    break
+                    return S, phi_S, L, Aphi
                 tight, x0 = True, phi_S  # S settled on a loose solve: solve it again exactly
                 continue
             if spills < MAX_SPILLS and self.sets.changed(S, new) == len(new) - len(S):  # S only grows:
@@ -156,18 +172,7 @@ class Projection:
             tight = tight or self.sets.changed(S, new) <= TIGHT_SWITCH * len(S)
             x0 = self.sets.carry(S, phi_S, new)
             S = new
-        else:
-            raise ProjectionError(f"active-set iterations did not terminate in {self.max_iterations}")
-        self.warm.remember(S, phi_S)
-        phi = np.zeros_like(b)
-        phi[S] = phi_S
-        info.update(iterations=iteration, unknowns=len(S))
-        info["active_set"] = time.perf_counter() - tic - info["detect"] - info["predict"] - info["setup"] \
-            - info["solve"]
-        if self.caps is None:
-            return PressureFlux(phi, L, Aphi), info
-        cells, door = L < self.ncells, phi[self.ncells:]
-        return PressureFlux(phi[:self.ncells], L[cells], Aphi[cells], door, self.caps.jumps(door)), info
+        raise ProjectionError(f"active-set iterations did not terminate in {self.max_iterations}")
 
     def _next(self, S, phi_S, w, strict, L, in_S, s_in_L):
         """The active-set update: S <- {phi >= 0 on S} U {w < 0 off S}, with w = b + A phi on L."""
