@@ -1,9 +1,21 @@
-"""The seconds a run spends in each phase (summary.json "timing"): one timer, the phases recorded by a context
-manager, ``with timer("projection"): ...``, summed over the calls."""
+"""Where the seconds go: the phases of a run (summary.json "timing"), recorded by a context manager,
+``with timer("projection"): ...``, summed over the calls; :func:`timed` adds a phase's seconds to any dict (the
+projection's info); a :class:`Stopwatch` gives the seconds since it started (a step, a study). The one place
+femcrowd reads the clock."""
 
 import time
 from collections import defaultdict
 from contextlib import contextmanager
+
+
+@contextmanager
+def timed(seconds: dict, phase: str):
+    """Add the seconds spent in the block to ``seconds[phase]``."""
+    tic = time.perf_counter()
+    try:
+        yield
+    finally:
+        seconds[phase] = seconds.get(phase, 0.0) + time.perf_counter() - tic
 
 
 class Timer:
@@ -12,16 +24,22 @@ class Timer:
     def __init__(self):
         self.seconds = defaultdict(float)
 
-    @contextmanager
     def __call__(self, phase: str):
-        tic = time.perf_counter()
-        try:
-            yield
-        finally:
-            self.seconds[phase] += time.perf_counter() - tic
+        return timed(self.seconds, phase)
 
     def __getitem__(self, phase: str) -> float:
         return self.seconds[phase]
 
     def items(self):
         return self.seconds.items()
+
+
+class Stopwatch:
+    """Started when made; ``seconds`` is the time since."""
+
+    def __init__(self):
+        self.start = time.perf_counter()
+
+    @property
+    def seconds(self) -> float:
+        return time.perf_counter() - self.start

@@ -1,7 +1,6 @@
 """Helpers shared by the tests: the repository's paths, a small square mesh, the projection as
-(rho, phi, info), history files (conftest.py makes fixtures of them)."""
+(rho, phi, info), the timing check."""
 
-import csv
 import sys
 from pathlib import Path
 
@@ -37,13 +36,6 @@ class Projector:
     def __call__(self, rho_tilde):
         flux, info = self.projection(rho_tilde)
         return flux.apply(rho_tilde, self.domain.area), flux.phi, info
-
-
-def read_history(path) -> dict:
-    """history.csv as {column: float array}."""
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
-    return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
 
 
 def assert_time_accounted(timing: dict) -> None:

@@ -1,5 +1,6 @@
-"""``femcrowd new``: a commented case.toml for a mesh, every key at its default (from the SCHEMA),
-exits = the mesh's boundary groups not named wall* (interior line groups are offered a capacity)."""
+"""``femcrowd new``: a commented case.toml for a mesh: the keys a new case sets, at their defaults (from the
+SCHEMA) and the commented-out options beside them; exits = the mesh's boundary groups not named wall* (interior
+line groups are offered a capacity). Every other key is in the case-format documentation."""
 
 import json
 import math
@@ -36,6 +37,15 @@ def new_case(case_dir, mesh_file) -> Path:
         raise InputError(file, None, None, "already exists: femcrowd new never overwrites a case "
                          "(choose another directory, or edit this file)")
     domain = load_domain(mesh_file, (), 0, case_file=file)
+    text = "".join((f"{line[0]:<30}  # {line[1]}" if isinstance(line, tuple) else line) + "\n"
+                   for line in _case_lines(case_dir, mesh_file, domain))
+    case_dir.mkdir(parents=True, exist_ok=True)
+    file.write_text(text)
+    return file
+
+
+def _case_lines(case_dir, mesh_file, domain) -> list:
+    """The lines of the case file: text, or (text, comment) pairs."""
     groups = domain.statistics()["boundary_groups"]
     inside = [name for name, facets in domain.groups.items() if len(facets) and domain.interior[facets].all()]
     exits = [name for name in groups if not wall_like(name) and name not in inside]
@@ -54,7 +64,7 @@ def new_case(case_dir, mesh_file) -> Path:
     else:
         velocity = [('type = "field"', "the mesh has no exit: U given by expressions in x, y, t"),
                     'ux = "1"', 'uy = "0"']
-    lines = [
+    return [
         f"# femcrowd case written by `femcrowd new` for {mesh_file.name}.",
         "# Keys left out take their default (see the case-format documentation). Run it with",
         f"#   femcrowd run {case_dir}",
@@ -87,7 +97,3 @@ def new_case(case_dir, mesh_file) -> Path:
         (f'# radius = {_default("micro", "radius")}', "m, or [min, max] for a polydisperse crowd"),
         f'# seed = {_default("micro", "seed")}',
     ]
-    text = "".join((f"{line[0]:<30}  # {line[1]}" if isinstance(line, tuple) else line) + "\n" for line in lines)
-    case_dir.mkdir(parents=True, exist_ok=True)
-    file.write_text(text)
-    return file

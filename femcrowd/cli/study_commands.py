@@ -1,12 +1,12 @@
 """``femcrowd convergence``, ``sweep`` and ``stress``: studies made of many runs."""
 
 import sys
-import time
 from pathlib import Path
 
 import click
 
 from ..errors import InputError
+from ..timer import Stopwatch
 from .main import force_option, main, scheduler_option, serial_option, set_option, study_out_option
 
 
@@ -107,7 +107,7 @@ def stress(out, only, cases, force, checks):
     """
     from ..studies import stress as st
 
-    tic = time.perf_counter()
+    clock = Stopwatch()
 
     def echo(result):
         click.echo(st.format_row(result))
@@ -121,7 +121,7 @@ def stress(out, only, cases, force, checks):
         for c in r.failures():
             click.echo(f"FAIL {r.name}: {c.what}: {c.detail}")
     passed = sum(r.passed for r in results)
-    click.echo(f"{passed}/{len(results)} scenes pass in {time.perf_counter() - tic:.0f} s; "
+    click.echo(f"{passed}/{len(results)} scenes pass in {clock.seconds:.0f} s; "
                f"table: {root / 'stress.md'}, {root / 'stress.csv'}; runs: {root}/<scene>")
     if passed < len(results):
         sys.exit(1)
@@ -155,7 +155,7 @@ def rimea(out, only, models):
     """
     from ..studies import rimea as rm
 
-    tic = time.perf_counter()
+    clock = Stopwatch()
     try:
         rm.select(only)
     except ValueError as err:
@@ -166,7 +166,7 @@ def rimea(out, only, models):
     (Path(out) / "rimea.md").write_text(table)
     click.echo("\n" + table)
     failed = sum(not v[0].passed for _, verdicts in rows for v in verdicts.values() if v is not None)
-    click.echo(f"{len(rows)} tests, {failed} failed verdicts, in {time.perf_counter() - tic:.0f} s; "
+    click.echo(f"{len(rows)} tests, {failed} failed verdicts, in {clock.seconds:.0f} s; "
                f"table: {Path(out) / 'rimea.md'}; runs: {out}/<case>-<model>")
 
 
@@ -210,12 +210,12 @@ def validate(out, settings, widths, levels, seeds, overrides, serial, scheduler,
     """
     from ..studies import validation as va
 
-    tic = time.perf_counter()
+    clock = Stopwatch()
     chosen = tuple(s.strip() for s in settings.split(",")) if settings else tuple(va.SETTINGS)
     table, text, root = va.validate(out, chosen, widths or va.WIDTHS, levels, seeds, overrides, serial, scheduler,
                                     force, echo=click.echo)
     click.echo("\n" + text)
-    click.echo(f"{len(table)} rows in {time.perf_counter() - tic:.0f} s; table: {root / 'validation.md'}, "
+    click.echo(f"{len(table)} rows in {clock.seconds:.0f} s; table: {root / 'validation.md'}, "
                f"runs: {root / 'validation.csv'}, plot: {root / 'validation.png'}")
 
 

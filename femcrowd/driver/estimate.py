@@ -3,12 +3,12 @@ timed steps of the real solver, nothing written."""
 
 import math
 import tempfile
-import time
 
 import numpy as np
 
 from ..case import Case
 from ..mesh import load_domain
+from ..timer import Stopwatch
 from .macro_model import MacroModel
 from .output import FrameSeries
 from .scene import build_scene
@@ -36,9 +36,9 @@ def estimate(model: MacroModel) -> dict:
     congested_input = np.where(crowd, 1.05, 0.0)
     frames = math.floor(end / case["output"]["every"] + 1e-9) + 1
     with tempfile.TemporaryDirectory() as tmp:
-        tic = time.perf_counter()
+        clock = Stopwatch()
         FrameSeries(tmp, "solution").write(0.0, model.frame())
-        frame_seconds = time.perf_counter() - tic
+        frame_seconds = clock.seconds
     exits = model.scene.boundary.at(state.t)
     transport = solver.transports(state, exits)[0]
     free = _median_seconds(lambda: transport.step(state.density, dt), TIMED_CALLS)
@@ -58,9 +58,9 @@ def _median_seconds(call, repeat):
     """Median wall time of a call (robust to a busy machine)."""
     durations = []
     for _ in range(repeat):
-        tic = time.perf_counter()
+        clock = Stopwatch()
         call()
-        durations.append(time.perf_counter() - tic)
+        durations.append(clock.seconds)
     return float(np.median(durations))
 
 

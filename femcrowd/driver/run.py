@@ -10,7 +10,6 @@ This is the Python API as well as what ``femcrowd run`` calls::
 """
 
 import logging
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -18,7 +17,7 @@ from .. import __version__
 from ..case import Case
 from ..linalg.threads import thread_limit
 from ..mesh import Domain, file_checksum
-from ..timer import Timer
+from ..timer import Stopwatch, Timer
 from . import checkpoint
 from .loop import Controller
 from .macro_model import MacroModel
@@ -64,11 +63,11 @@ class Simulation:
     """
 
     def __init__(self, case: Case, threads: int = 1):
-        self._wall = time.perf_counter()
+        self._wall = Stopwatch()
         self.case, self.threads = case, threads
         self.timer = Timer()   # the run's own phases: output and recording (the model times its steps)
         with thread_limit(threads):
-            self.threads_seconds = time.perf_counter() - self._wall  # finding the pools, once per process
+            self.threads_seconds = self._wall.seconds  # finding the pools, once per process
             self.scene = build_scene(case)
             self.model = MODELS[case["model"]["type"]](self.scene)
         log.info("set up %s: %s", case.file, ", ".join(f"{k} {v:.3g} s" for k, v in self.scene.timer.items()))
@@ -108,7 +107,7 @@ class Simulation:
     def _timing(self, position) -> dict:
         """Seconds per phase (summed over the parts of a resumed run) and the wall time."""
         now = {"threads": self.threads_seconds, **dict(self.scene.timer.items()), **dict(self.model.timers.items()),
-               **dict(self.timer.items()), "wall": time.perf_counter() - self._wall}
+               **dict(self.timer.items()), "wall": self._wall.seconds}
         before = position.get("timing", {})
         return {k: before.get(k, 0.0) + now.get(k, 0.0) for k in {**before, **now}}
 

@@ -223,7 +223,28 @@ def _seed_values(p, t, d, exn, ex):
     if len(ex) == 0:
         return d
 
-    # Sides of the line of each exit edge on which a triangle holding that edge lies.
+    a, b = ex[:, 0], ex[:, 1]
+    side_pos, side_neg = _edge_sides(p, tt, ex)
+    table = _edges_at_nodes(n, ex)
+
+    for k in range(3):  # segment candidates
+        rows_k = np.flatnonzero(is_exit[tt[:, k]])
+        for j in range(table.shape[1]):
+            e = table[tt[rows_k, k], j]
+            rows, e = rows_k[e >= 0], e[e >= 0]
+            A, B = p[a[e]], p[b[e]]
+            for i in range(3):
+                w = tt[rows, i]
+                cr = _cross(B - A, p[w] - A)
+                good = (cr == 0) | ((cr > 0) & side_pos[e]) | ((cr < 0) & side_neg[e])
+                np.minimum.at(d, w[good], _seg_dist(p[w[good]], A[good], B[good]))
+    return d
+
+
+def _edge_sides(p, tt, ex):
+    """The sides of the line of each exit edge (a, b) on which a triangle of tt holding that edge lies: masks
+    (positive cross product, negative) over the edges."""
+    n = len(p)
     a, b = ex[:, 0], ex[:, 1]
     ekey = np.minimum(a, b) * n + np.maximum(a, b)
     eorder = np.argsort(ekey)
@@ -239,9 +260,12 @@ def _seed_values(p, t, d, exn, ex):
         cr = _cross(p[b[e]] - p[a[e]], p[tt[hit, (k + 2) % 3]] - p[a[e]])
         side_pos[e[cr > 0]] = True
         side_neg[e[cr < 0]] = True
+    return side_pos, side_neg
 
-    # Exit edges at each exit node, as a padded table (n, maxdeg) with -1 for none.
-    inc_node = np.r_[a, b]
+
+def _edges_at_nodes(n, ex):
+    """The exit edges at each of the n nodes, as a padded table (n, largest degree), -1 for none."""
+    inc_node = np.r_[ex[:, 0], ex[:, 1]]
     inc_edge = np.r_[np.arange(len(ex)), np.arange(len(ex))]
     o = np.argsort(inc_node, kind="stable")
     inc_node, inc_edge = inc_node[o], inc_edge[o]
@@ -249,19 +273,7 @@ def _seed_values(p, t, d, exn, ex):
     slot = np.arange(len(inc_node)) - np.repeat(firsts, np.diff(np.r_[firsts, len(inc_node)]))
     table = np.full((n, slot.max() + 1), -1, dtype=np.int64)
     table[inc_node, slot] = inc_edge
-
-    for k in range(3):  # segment candidates
-        rows_k = np.flatnonzero(is_exit[tt[:, k]])
-        for j in range(table.shape[1]):
-            e = table[tt[rows_k, k], j]
-            rows, e = rows_k[e >= 0], e[e >= 0]
-            A, B = p[a[e]], p[b[e]]
-            for i in range(3):
-                w = tt[rows, i]
-                cr = _cross(B - A, p[w] - A)
-                good = (cr == 0) | ((cr > 0) & side_pos[e]) | ((cr < 0) & side_neg[e])
-                np.minimum.at(d, w[good], _seg_dist(p[w[good]], A[good], B[good]))
-    return d
+    return table
 
 
 def _cross(u, v):

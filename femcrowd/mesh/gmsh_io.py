@@ -74,39 +74,62 @@ def _read_msh22_ascii(raw):
     """
     if not raw.startswith(b"$MeshFormat\n2.2 0 8\n"):
         return None
+    body = _msh22_sections(raw)
+    if b"Nodes" not in body or b"Elements" not in body:
+        return None
+    try:   # ValueError: not the simple format, left to meshio
+        field_data = _msh22_physical_names(body.get(b"PhysicalNames", b"0\n"))
+        points, index = _msh22_nodes(body[b"Nodes"])
+        cells, physical = _msh22_elements(body[b"Elements"], index)
+    except ValueError:
+        return None
+    return meshio.Mesh(points, cells, cell_data={"gmsh:physical": physical}, field_data=field_data)
+
+
+def _msh22_sections(raw) -> dict:
+    """The count line and the data lines of the $PhysicalNames, $Nodes and $Elements sections."""
     body = {}
     for name in (b"PhysicalNames", b"Nodes", b"Elements"):
         start = raw.find(b"\n$" + name + b"\n")
         end = raw.find(b"\n$End" + name, start)
         if start >= 0 and end >= 0:
-            body[name] = raw[start + len(name) + 3:end + 1]  # the count line and the data lines
-    if b"Nodes" not in body or b"Elements" not in body:
-        return None
-    try:
-        field_data = {}
-        if b"PhysicalNames" in body:
-            count, *lines = body[b"PhysicalNames"].decode().splitlines()
-            for line in lines[:int(count)]:
-                dim, tag, name = shlex.split(line)  # names are quoted and may hold spaces
-                field_data[name] = np.array([int(tag), int(dim)])
-        nodes = _numbers(body[b"Nodes"], float)
-        count = int(nodes[0])
-        if nodes.size != 1 + 4 * count:
-            return None
-        nodes = nodes[1:].reshape(count, 4)
-        number = nodes[:, 0].astype(np.int64)
-        if count == 0 or number.min() < 0:
-            return None
-        index = np.full(number.max() + 1, -1)
-        index[number] = np.arange(count)
+            body[name] = raw[start + len(name) + 3:end + 1]
+    return body
 
-        head, _, lines = body[b"Elements"].partition(b"\n")
-        ints = _numbers(lines, np.int64)
-        per_line = _tokens_per_line(lines)
-        if len(per_line) != int(head) or per_line.sum() != ints.size:
-            return None
-    except ValueError:
-        return None
+
+def _msh22_physical_names(section) -> dict:
+    """{name: [tag, dim]} of the $PhysicalNames section."""
+    count, *lines = section.decode().splitlines()
+    field_data = {}
+    for line in lines[:int(count)]:
+        dim, tag, name = shlex.split(line)  # names are quoted and may hold spaces
+        field_data[name] = np.array([int(tag), int(dim)])
+    return field_data
+
+
+def _msh22_nodes(section):
+    """The points (n, 3) of the $Nodes section in file order, and the index of each node number."""
+    nodes = _numbers(section, float)
+    count = int(nodes[0])
+    if nodes.size != 1 + 4 * count:
+        raise ValueError("node lines of another shape")
+    nodes = nodes[1:].reshape(count, 4)
+    number = nodes[:, 0].astype(np.int64)
+    if count == 0 or number.min() < 0:
+        raise ValueError("no nodes, or negative node numbers")
+    index = np.full(number.max() + 1, -1)
+    index[number] = np.arange(count)
+    return nodes[:, 1:], index
+
+
+def _msh22_elements(section, index):
+    """The cells of the $Elements section per known type, in file order, as node indices, and their physical
+    tags (the first tag)."""
+    head, _, lines = section.partition(b"\n")
+    ints = _numbers(lines, np.int64)
+    per_line = _tokens_per_line(lines)
+    if len(per_line) != int(head) or per_line.sum() != ints.size:
+        raise ValueError("element count or line lengths do not match")
     start = np.cumsum(per_line) - per_line
     kind, ntags = ints[start + 1], ints[start + 2]
     nodes_of = np.zeros(max(_MSH22_TYPES) + 1, np.int64)
@@ -114,17 +137,17 @@ def _read_msh22_ascii(raw):
         nodes_of[code] = n
     known = (kind >= 0) & (kind < len(nodes_of))
     if not known.all() or (ntags < 1).any() or (per_line != 3 + ntags + nodes_of[kind]).any():
-        return None
+        raise ValueError("element types other than vertices, lines and triangles")
     cells, physical = [], []
     for code, (cell_type, n) in _MSH22_TYPES.items():
         mine = kind == code
         if mine.any():
             number = ints[(start[mine] + 3 + ntags[mine])[:, None] + np.arange(n)]
             if number.max() >= len(index) or (index[number] < 0).any():
-                return None
+                raise ValueError("elements of unknown nodes")
             cells.append((cell_type, index[number]))
             physical.append(ints[start[mine] + 3])
-    return meshio.Mesh(nodes[:, 1:], cells, cell_data={"gmsh:physical": physical}, field_data=field_data)
+    return cells, physical
 
 
 def _numbers(text, dtype):

@@ -327,6 +327,33 @@ def _line_search(v, U, delta, z, w, rho):
     return float(min(max(-c0[k] / c1[k], lo), ends[k]))
 
 
+class _MultiplierUpdate:
+    """The multiplier update lam <- [z]_+ on the active rows A. When two successive increments are equal (an
+    inconsistent active set: lam drifts along a self-stress, B^T dlam = 0, at rate rho * residual), it jumps
+    along the drift to the first lam_i = 0."""
+
+    def __init__(self):
+        self.prev_step = None   # the last increment
+
+    def __call__(self, lam, z, act):
+        new = np.maximum(np.where(act, z, 0.0), 0.0)
+        step = new - lam
+        if self.prev_step is not None:
+            ds = np.abs(step - self.prev_step).max()
+            sm = np.abs(step).max()
+            dec = step < 0
+            if sm > 0 and ds <= 1e-3 * sm and np.any(dec & (new > 0)):
+                ratio = new[dec] / -step[dec]
+                t = float(ratio.min())
+                if t > 1.0:
+                    new = np.maximum(new + t * step, 0.0)
+                    new[np.flatnonzero(dec)[np.argmin(ratio)]] = 0.0
+                    self.prev_step = None
+                    return new
+        self.prev_step = step
+        return new
+
+
 def _ssn_alm(C: Constraints, U, d, lam, atol, max_iter, rho, newton, max_fact=None):
     """Semismooth Newton / multiplier iterations in incremental (refinement) form.
 
@@ -354,30 +381,9 @@ def _ssn_alm(C: Constraints, U, d, lam, atol, max_iter, rho, newton, max_fact=No
     nfact = it = 0
     converged = False
     kkt = np.inf
-    prev_step = None  # last multiplier increment (drift detection)
     hprev = None
 
-    def update(lam, z, act):
-        """Multiplier update lam <- [z]_+ on A; when two successive increments are
-        equal (inconsistent active set: lam drifts along a self-stress, B^T dlam = 0,
-        at rate rho * residual), jump along the drift to the first lam_i = 0."""
-        nonlocal prev_step
-        new = np.maximum(np.where(act, z, 0.0), 0.0)
-        step = new - lam
-        if prev_step is not None:
-            ds = np.abs(step - prev_step).max()
-            sm = np.abs(step).max()
-            dec = step < 0
-            if sm > 0 and ds <= 1e-3 * sm and np.any(dec & (new > 0)):
-                ratio = new[dec] / -step[dec]
-                t = float(ratio.min())
-                if t > 1.0:
-                    new = np.maximum(new + t * step, 0.0)
-                    new[np.flatnonzero(dec)[np.argmin(ratio)]] = 0.0
-                    prev_step = None
-                    return new
-        prev_step = step
-        return new
+    update = _MultiplierUpdate()
 
     while True:
         r1 = U - v - C.rmatvec(lam)

@@ -116,7 +116,7 @@ def sample_discs(
     """
     rng = np.random.default_rng(seed)
     a, b, c, area = _triangle_data(points, triangles)
-    rmin, rmax, r2 = _radius_moments(radius)
+    rmin, rmax, _ = _radius_moments(radius)
     if count is None:
         count = target_count(density, points, triangles, radius, packing)
     count = int(count)
@@ -126,17 +126,7 @@ def sample_discs(
     if walls is None and exits is None:
         segs = [_boundary_edges(points, triangles)]
     obstacles = WallSet(np.concatenate(segs), merge=True)
-    # density-weighted triangle choice: weights area * density at the centroid, then
-    # exact thinning with density(x) / bound per triangle (bound = max over vertices+centroid)
-    cen = (a + b + c) / 3.0
-    dv = np.stack([_eval_density(density, p) for p in (a, b, c, cen)])
-    dv = np.clip(dv, 0.0, 1.0)
-    bound = dv.max(axis=0)
-    wt = area * bound
-    if wt.sum() <= 0:
-        raise ValueError("density is zero everywhere in the domain")
-    cdf = np.cumsum(wt)
-    cdf /= cdf[-1]
+    cdf, bound = _proposal(density, a, b, c, area)
     batch = batch or max(256, 2 * count)
     q = np.zeros((0, 2))
     r = np.zeros(0)
@@ -152,34 +142,9 @@ def sample_discs(
         x = a[k] + u1[:, None] * (b[k] - a[k]) + u2[:, None] * (c[k] - a[k])
         rc = np.full(batch, rmin) if rmin == rmax else rng.uniform(rmin, rmax, batch)
         ok = rng.random(batch) * bound[k] < np.clip(_eval_density(density, x), 0, 1)
-        # clearance from walls and exits
-        if obstacles.n and ok.any():
-            idx = np.flatnonzero(ok)
-            hit_i, _, _, dist = obstacles.near(x[idx], rmax)
-            bad = np.zeros(len(idx), bool)
-            bad[hit_i[dist < rc[idx][hit_i]]] = True
-            ok[idx[bad]] = False
-        # overlap with accepted discs
-        if tree is not None and ok.any():
-            idx = np.flatnonzero(ok)
-            dd, jj = tree.query(x[idx], k=min(8, len(q)), distance_upper_bound=rc[idx].max() + rmax)
-            dd, jj = dd.reshape(len(idx), -1), jj.reshape(len(idx), -1)
-            valid = jj < len(q)
-            rr = np.where(valid, r[np.minimum(jj, len(q) - 1)], 0.0)
-            clash = (valid & (dd < rc[idx][:, None] + rr)).any(axis=1)
-            ok[idx[clash]] = False
-        # conflicts inside the batch: keep the earlier candidate of each clashing pair
-        idx = np.flatnonzero(ok)
-        if len(idx) > 1:
-            sub = cKDTree(x[idx])
-            pairs = sub.query_pairs(2 * rmax, output_type="ndarray")
-            if len(pairs):
-                dist = np.linalg.norm(x[idx[pairs[:, 0]]] - x[idx[pairs[:, 1]]], axis=1)
-                pairs = pairs[dist < rc[idx[pairs[:, 0]]] + rc[idx[pairs[:, 1]]]]
-                drop = np.zeros(len(idx), bool)
-                if len(pairs):   # conservative: drop every later member of a clashing pair
-                    drop[np.maximum(pairs[:, 0], pairs[:, 1])] = True
-                ok[idx[drop]] = False
+        _reject_near_walls(ok, x, rc, rmax, obstacles)
+        _reject_overlaps(ok, x, rc, rmax, tree, r)
+        _reject_batch_clashes(ok, x, rc, rmax)
         idx = np.flatnonzero(ok)[:need]
         if len(idx):
             q = np.concatenate([q, x[idx]])
@@ -192,6 +157,63 @@ def sample_discs(
             raise ValueError(msg)
         warnings.warn(msg, stacklevel=2)
     return q, r
+
+
+def _proposal(density, a, b, c, area):
+    """Density-weighted choice of triangles with exact thinning.
+
+    A triangle is drawn with weight area * bound, where bound is the largest
+    density at its vertices and centroid; a point drawn in it is then kept
+    with probability density(x) / bound. Returns (cdf of the weights, bound).
+    """
+    cen = (a + b + c) / 3.0
+    dv = np.clip(np.stack([_eval_density(density, p) for p in (a, b, c, cen)]), 0.0, 1.0)
+    bound = dv.max(axis=0)
+    wt = area * bound
+    if wt.sum() <= 0:
+        raise ValueError("density is zero everywhere in the domain")
+    cdf = np.cumsum(wt)
+    return cdf / cdf[-1], bound
+
+
+def _reject_near_walls(ok, x, rc, rmax, obstacles):
+    """Clear ok where a candidate disc would cross a wall or an exit."""
+    if not (obstacles.n and ok.any()):
+        return
+    idx = np.flatnonzero(ok)
+    hit_i, _, _, dist = obstacles.near(x[idx], rmax)
+    bad = np.zeros(len(idx), bool)
+    bad[hit_i[dist < rc[idx][hit_i]]] = True
+    ok[idx[bad]] = False
+
+
+def _reject_overlaps(ok, x, rc, rmax, tree, r):
+    """Clear ok where a candidate overlaps a disc already accepted (in tree, radii r)."""
+    if tree is None or not ok.any():
+        return
+    idx = np.flatnonzero(ok)
+    n = len(r)
+    dd, jj = tree.query(x[idx], k=min(8, n), distance_upper_bound=rc[idx].max() + rmax)
+    dd, jj = dd.reshape(len(idx), -1), jj.reshape(len(idx), -1)
+    valid = jj < n
+    rr = np.where(valid, r[np.minimum(jj, n - 1)], 0.0)
+    clash = (valid & (dd < rc[idx][:, None] + rr)).any(axis=1)
+    ok[idx[clash]] = False
+
+
+def _reject_batch_clashes(ok, x, rc, rmax):
+    """Clear ok on the later member of every overlapping pair inside the batch."""
+    idx = np.flatnonzero(ok)
+    if len(idx) < 2:
+        return
+    pairs = cKDTree(x[idx]).query_pairs(2 * rmax, output_type="ndarray")
+    if not len(pairs):
+        return
+    dist = np.linalg.norm(x[idx[pairs[:, 0]]] - x[idx[pairs[:, 1]]], axis=1)
+    pairs = pairs[dist < rc[idx[pairs[:, 0]]] + rc[idx[pairs[:, 1]]]]
+    drop = np.zeros(len(idx), bool)
+    drop[np.maximum(pairs[:, 0], pairs[:, 1])] = True
+    ok[idx[drop]] = False
 
 
 def _boundary_edges(points, triangles):

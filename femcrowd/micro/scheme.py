@@ -27,12 +27,12 @@ that output can be plugged in by the caller.
 
 from __future__ import annotations
 
-import time as _time
 from dataclasses import dataclass, field
 from typing import Callable, Iterator
 
 import numpy as np
 
+from ..timer import Stopwatch
 from .contacts import WallSet, as_segments, merge_collinear
 from .fluctuation import FLUCTUATION_TIME, Fluctuation
 from .network import ContactNetwork
@@ -251,54 +251,25 @@ class MicroSimulation:
     # ------------------------------------------------------------------
     def step(self) -> StepInfo:
         """One catching-up step (Maury 2014, eq. 15): returns its diagnostics."""
-        t_start = _time.perf_counter()
+        clock = Stopwatch()
         tau = self.tau
         N = self.count
         U = self.desired_velocity() if N else np.zeros((0, 2))
         if self.fluctuation is not None and N:
             U = U + self.fluctuation.xi
-        rebuilds = 0
         if N:
-            net = self.contacts
-            # the list must cover the predicted moves (desired or last speed, whichever is larger)
-            speed = np.sqrt(np.maximum((U * U).sum(1), (self.u * self.u).sum(1)))
-            rebuilds += net.cover(self.q, self.r, tau * speed, tau * np.sqrt((U * U).sum(1)))
-            res, feasible_tol = None, self.tol * max(1.0, float(np.abs(U).max()))
-            for attempt in range(6):
-                C = net.constraints(self.q, self.r)
-                d = np.maximum(C.D, -self._recover) / tau
-                # after a rebuild, velocities that satisfy the new rows (all inactive) are still the projection
-                if res is None or float((C.matvec(res.u) - d).max(initial=0.0)) > feasible_tol:
-                    res = project(C, U, d, method=self.method, lam0=net.lam, tol=self.tol,
-                                  max_iter=self.max_iter, pattern=net.pattern)
-                    net.lam = res.lam
-                moved = tau * np.sqrt((res.u * res.u).sum(1))
-                if net.cl.travel_ok(self.q, moved):
-                    break
-                net.rebuild(self.q, self.r, max(net.base_skin, 2.5 * float(moved.max())))   # carries lam over
-                rebuilds += 1
-            else:  # pragma: no cover - would need an unbounded velocity
-                raise RuntimeError("candidate list could not cover the step")
-            u, lam = res.u, net.lam
+            res, C, rebuilds = self._project(U)
+            u, lam = res.u, self.contacts.lam
             pressure = C.per_disc_sum(lam)
             contacts = int(np.count_nonzero(lam > 0))
             q_new = self.q + tau * u
         else:
-            u, pressure, contacts, q_new, res = np.zeros((0, 2)), np.zeros(0), 0, self.q, None
-        # exits
+            u, pressure, contacts, q_new, res, rebuilds = np.zeros((0, 2)), np.zeros(0), 0, self.q, None, 0
         gone = exit_crossings(self.q, q_new, self.exits) if N else np.zeros(0, bool)
-        ngone = int(gone.sum())
         self.moved_to = self.q = q_new
         self.u = u
         self.contacts.moved()
-        if ngone:
-            keep = ~gone
-            self.contacts.remove(keep)
-            self.q, self.r, self.ids = self.q[keep], self.r[keep], self.ids[keep]
-            self.u, pressure = self.u[keep], pressure[keep]
-            if self.fluctuation is not None:
-                self.fluctuation.keep(keep)
-            self.evacuated += ngone
+        pressure = self._leave(gone, pressure)
         if self.fluctuation is not None:
             self.fluctuation.advance(tau)   # to the end of the step: the next step's perturbations
         # gaps at the new configuration: diagnostics and next step's constraints
@@ -311,7 +282,7 @@ class MicroSimulation:
             dt=tau,
             count=self.count,
             evacuated=self.evacuated,
-            evacuated_now=ngone,
+            evacuated_now=int(gone.sum()),
             contacts=contacts,
             max_overlap=max_overlap,
             overlap_r=overlap_r,
@@ -324,13 +295,50 @@ class MicroSimulation:
             fallback=False if res is None else res.fallback,
             rebuilds=rebuilds,
             candidates=self.contacts.candidates,
-            step_seconds=_time.perf_counter() - t_start,
+            step_seconds=clock.seconds,
             ids=self.ids,
             q=self.q,
             r=self.r,
             u=self.u,
             pressure=pressure,
         )
+
+    def _project(self, U):
+        """The projected velocity of the step (the QP on candidate pairs that cover the move; the list is rebuilt
+        and the QP solved again while a disc moves further than the skin allows): (result, constraints,
+        rebuilds)."""
+        tau, net = self.tau, self.contacts
+        # the list must cover the predicted moves (desired or last speed, whichever is larger)
+        speed = np.sqrt(np.maximum((U * U).sum(1), (self.u * self.u).sum(1)))
+        rebuilds = net.cover(self.q, self.r, tau * speed, tau * np.sqrt((U * U).sum(1)))
+        res, feasible_tol = None, self.tol * max(1.0, float(np.abs(U).max()))
+        for _ in range(6):
+            C = net.constraints(self.q, self.r)
+            d = np.maximum(C.D, -self._recover) / tau
+            # after a rebuild, velocities that satisfy the new rows (all inactive) are still the projection
+            if res is None or float((C.matvec(res.u) - d).max(initial=0.0)) > feasible_tol:
+                res = project(C, U, d, method=self.method, lam0=net.lam, tol=self.tol,
+                              max_iter=self.max_iter, pattern=net.pattern)
+                net.lam = res.lam
+            moved = tau * np.sqrt((res.u * res.u).sum(1))
+            if net.cl.travel_ok(self.q, moved):
+                return res, C, rebuilds
+            net.rebuild(self.q, self.r, max(net.base_skin, 2.5 * float(moved.max())))   # carries lam over
+            rebuilds += 1
+        raise RuntimeError("candidate list could not cover the step")  # pragma: no cover - unbounded velocity
+
+    def _leave(self, gone, pressure):
+        """Remove the discs that crossed an exit (mask gone) and count them; returns the pressure of those left."""
+        ngone = int(gone.sum())
+        if not ngone:
+            return pressure
+        keep = ~gone
+        self.contacts.remove(keep)
+        self.q, self.r, self.ids, self.u = self.q[keep], self.r[keep], self.ids[keep], self.u[keep]
+        if self.fluctuation is not None:
+            self.fluctuation.keep(keep)
+        self.evacuated += ngone
+        return pressure[keep]
 
     def run(self, t_end: float | None = None, max_steps: int | None = None,
             stop_when_empty: bool = True) -> Iterator[StepInfo]:

@@ -18,7 +18,6 @@ import itertools
 import json
 import math
 import os
-import time
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -34,6 +33,7 @@ from ..errors import InputError
 from ..macro.transport import TRANSPORTS
 from ..mesh import Domain
 from ..plot.convergence import error_plot
+from ..timer import Stopwatch
 from .execute import execute
 from .measures import METRICS, ExactReference, LevelReference, exact_solution, measure
 
@@ -124,9 +124,9 @@ def run_task(task: Task) -> dict:
     Without one, return the states (rho, p per time) so that the client compares with the finest level.
     """
     case = load_case(task.case_dir, task.overrides)
-    tic = time.perf_counter()
+    clock = Stopwatch()
     simulation = Simulation(case)
-    setup = time.perf_counter() - tic
+    setup = clock.seconds
     model, domain, rho_max = simulation.model, simulation.scene.domain, case["model"]["rho_max"]
     states = []
 

@@ -5,7 +5,6 @@ the saturated evacuation in two colours. Each run steps exactly as ``femcrowd ru
 functions on fewer levels.
 """
 
-import time
 
 import numpy as np
 
@@ -14,14 +13,15 @@ from ..case import load_case
 from ..driver import Simulation
 from ..macro.diagnostics import SATURATED
 from ..macro.exact import ColouredEvacuation, HeadOnPopulations, LWRRiemann
+from ..timer import Stopwatch
 
 
 def run_level(case_dir, level, overrides=None):
     """One level of a series: (Result, run seconds); time.end is reached even when the crowd has left."""
     case = load_case(case_dir, {**(overrides or {}), "mesh.refine": level, "output.every": 1e9})
-    tic = time.perf_counter()
+    clock = Stopwatch()
     result = Simulation(case).run(stop_when_empty=False)
-    return result, time.perf_counter() - tic
+    return result, clock.seconds
 
 
 def _common(result, seconds, level):

@@ -9,7 +9,6 @@ settings docs/validation.md recommends for realistic door flows (door capacities
 arch-breaking discs). Each test judges what a user reads from the run: history, summary, measurements.csv.
 """
 
-import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -19,6 +18,7 @@ import numpy as np
 from .. import shipped
 from ..case import load_case
 from ..driver import Simulation
+from ..timer import Stopwatch
 from .recommended import DISCS, DOOR_CAPACITY, FLUCTUATION, PUSH, SPEED, door_capacity
 
 #: the cases (shipped with femcrowd)
@@ -220,7 +220,7 @@ def select(only=()) -> list:
 
 def run_test(test: RimeaTest, variant: str, cases=CASES, out=None) -> tuple:
     """Run a test's cases with one variant (writing OUT/<case>-<variant> when out is given); (Verdict, seconds)."""
-    tic = time.perf_counter()
+    clock = Stopwatch()
     chosen, results = VARIANTS[variant], []
     for k, entry in enumerate(test.cases):
         name, own = (entry, {}) if isinstance(entry, str) else entry
@@ -231,7 +231,7 @@ def run_test(test: RimeaTest, variant: str, cases=CASES, out=None) -> tuple:
         suffix = "" if isinstance(entry, str) else f"-{k}"
         target = Path(out) / f"{name}-{variant}{suffix}" if out is not None else None
         results.append(Simulation(case).run(target, force=True))
-    return test.judge(results), time.perf_counter() - tic
+    return test.judge(results), clock.seconds
 
 
 def run_all(only=(), models=MODELS, cases=CASES, out=None, echo=None) -> list:

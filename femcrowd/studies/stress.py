@@ -18,7 +18,6 @@ A scene passes when every check holds.
 
 import csv
 import json
-import time
 import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,6 +27,7 @@ from ..case import load_case
 from ..driver import run
 from ..driver.output import prepare_output_dir
 from ..errors import InputError
+from ..timer import Stopwatch
 from .stress_checks import CHECKS, LINEAR_TOL, MASS_TOL, RHO_TOL, Check, Output, population_invariants
 
 #: the scenes (shipped with femcrowd)
@@ -100,19 +100,19 @@ def scenes(cases=CASES, only=()) -> list:
 
 def run_scene(name: str, out, cases=CASES, overrides=()) -> Result:
     """Run one scene into ``out`` (a new or femcrowd-written directory) and check it."""
-    tic = time.perf_counter()
+    clock = Stopwatch()
     try:
         case = load_case(Path(cases) / name, overrides)
         summary = run(case, out).summary
     except InputError as err:
-        return Result(name, {}, [Check("case accepted", False, str(err))], time.perf_counter() - tic)
+        return Result(name, {}, [Check("case accepted", False, str(err))], clock.seconds)
     except Exception as err:  # a solver failure fails the scene, not the matrix
         file = Path(out) / "summary.json"
         summary = json.loads(file.read_text()) if file.is_file() else {}
         where = traceback.extract_tb(err.__traceback__)[-1]
         detail = f"{type(err).__name__}: {err} ({Path(where.filename).name}:{where.lineno})"
-        return Result(name, summary, [Check("run", False, detail)], time.perf_counter() - tic)
-    wall = time.perf_counter() - tic
+        return Result(name, summary, [Check("run", False, detail)], clock.seconds)
+    wall = clock.seconds
     checks = invariants(summary, case["model"]["rho_max"])
     if name in CHECKS:
         try:

@@ -14,7 +14,6 @@ the source and how it was read.
 """
 
 import csv
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -26,6 +25,7 @@ from ..driver.output import prepare_output_dir
 from ..errors import InputError
 from ..mesh.floorplan import build_mesh
 from ..plot.validation import flows_plot
+from ..timer import Stopwatch
 from .execute import execute
 from .recommended import DISCS, DOOR_CAPACITY, PUSH, SPEED, door_capacity
 
@@ -136,7 +136,7 @@ def run_task(task: Task) -> dict:
     setting = SETTINGS[task.setting]
     overrides = [*setting.overrides, *task.overrides] + ([f"micro.seed={task.seed}"] if setting.discs
                                                           else [f"mesh.refine={task.level}"])
-    tic = time.perf_counter()
+    clock = Stopwatch()
     simulation = Simulation(load_case(task.case_dir, overrides))
     result = simulation.run()
     h = result.history
@@ -145,7 +145,7 @@ def run_task(task: Task) -> dict:
     return {"setting": task.setting, "width": task.width, "level": task.level, "seed": task.seed,
             "cells": result.domain.ncells, "people": people, "evacuated": float(h["evacuated"][-1]),
             "last_out": float(h["time"][-1]), "flow": j, "specific_flow": j / task.width,
-            "all_out": bool(h["evacuated"][-1] >= people - 0.5), "wall": time.perf_counter() - tic,
+            "all_out": bool(h["evacuated"][-1] >= people - 0.5), "wall": clock.seconds,
             "max_overlap_r": float(result.summary.get("max_overlap_r", 0.0))}
 
 

@@ -5,6 +5,8 @@ a case is checked."""
 import subprocess
 import sys
 
+from ..support import CASES
+
 MODELS = ("femcrowd.macro", "femcrowd.micro", "femcrowd.mesh", "femcrowd.driver", "scipy", "skfem", "pymetis")
 
 
@@ -20,7 +22,7 @@ def test_importing_the_case_layer_imports_no_model():
     assert imported_by("from femcrowd.case import load_case, SCHEMA, Expression") == set()
 
 
-def test_the_models_are_asked_for_their_choices_when_a_case_is_checked(cases):
+def test_the_models_are_asked_for_their_choices_when_a_case_is_checked():
     """cases/bottleneck names a speed law: checking it asks the macro model, nothing more."""
-    loaded = imported_by(f"from femcrowd.case import load_case\nload_case({str(cases / 'bottleneck')!r})")
+    loaded = imported_by(f"from femcrowd.case import load_case\nload_case({str(CASES / 'bottleneck')!r})")
     assert "femcrowd.macro" in loaded and "femcrowd.driver" not in loaded

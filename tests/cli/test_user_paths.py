@@ -10,9 +10,10 @@ from click.testing import CliRunner
 
 from femcrowd import load_case, run
 from femcrowd.cli import main
+from femcrowd.driver.reading import read_history
 from femcrowd.studies.convergence import plan_study, run_task
 
-from ..support import CASES, MESHES, read_history
+from ..support import CASES, MESHES
 
 
 def invoke(*args):

@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 
 import femcrowd
+from femcrowd.driver.reading import read_history
 
-from ..support import CASES, read_history
+from ..support import CASES
 
 
 def test_run_in_memory_writes_nothing_and_returns_arrays(tmp_path, monkeypatch):

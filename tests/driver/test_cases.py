@@ -23,7 +23,7 @@ MACRO = [name for name in SHIPPED if load_case(CASES / name)["model"]["type"] ==
 def test_the_shipped_cases_are_there():
     assert {"room", "room-obstacles", "two-exits", "corridor-wall", "radial", "saturated-exit",
             "narrow-door"} <= set(MACRO)
-    assert "narrow-door-micro" in SHIPPED  # micro: tests/test_micro_run.py
+    assert "narrow-door-micro" in SHIPPED  # micro: tests/driver/test_micro_runs.py
 
 
 @pytest.mark.parametrize("name", MACRO)

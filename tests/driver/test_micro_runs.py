@@ -7,10 +7,11 @@ from click.testing import CliRunner
 
 from femcrowd import load_case, run
 from femcrowd.cli import main
+from femcrowd.driver.reading import read_history
 from femcrowd.errors import InputError
 from femcrowd.studies.compare import compare
 
-from ..support import CASES, assert_time_accounted, read_history
+from ..support import CASES, assert_time_accounted
 
 
 def run_micro(case, out):

@@ -7,8 +7,9 @@ import pytest
 import pyvista
 
 from femcrowd import Simulation, load_case, run
+from femcrowd.driver.reading import read_history
 
-from ..support import CASES, read_history
+from ..support import CASES
 
 
 def test_one_named_population_or_the_constant_law_change_nothing():

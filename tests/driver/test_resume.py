@@ -13,9 +13,9 @@ import pytest
 from click.testing import CliRunner
 
 from femcrowd.cli import main
-from femcrowd.driver.reading import read_frame, read_pvd
+from femcrowd.driver.reading import read_frame, read_history, read_pvd
 
-from ..support import CASES, FEMCROWD, read_history
+from ..support import CASES, FEMCROWD
 
 CASE = CASES / "stress" / "head-on"  # 258 steps, a frame every 0.25 s, collisions: the projection at work
 #: how the solver got there (not the state): a resumed run starts its projection cold, without a warm start

@@ -5,10 +5,11 @@ import numpy as np
 import pytest
 
 from femcrowd import Simulation, load_case
+from femcrowd.driver.measurements import line_facets
 from femcrowd.macro.exact import SaturatedEvacuation
 from femcrowd.mesh.floorplan import build_mesh
 
-from ..support import CASES
+from ..support import CASES, unit_square
 
 
 def macro_run(case_dir, overrides):
@@ -174,11 +175,10 @@ def test_lines_at_the_exit_count_exactly_the_evacuated_mass():
     assert m["front_pressure"].max() > 0 and m["front_speed"].max() > 0
 
 
-def test_a_line_along_interior_edges_counts_the_mass_that_crossed_it(square_domain):
+def test_a_line_along_interior_edges_counts_the_mass_that_crossed_it():
     """On a structured mesh the line x = 1/2 follows edges: its count is exactly the mass now right of it
     minus the mass there at t = 0 (nothing leaves: no exit)."""
-    from femcrowd.driver.measurements import line_facets
-    domain = square_domain(16)
+    domain = unit_square(16)
     facets, sign = line_facets(domain, np.array([0.5, 0.0]), np.array([0.5, 1.0]))
     assert np.allclose(domain.midpoint[facets, 0], 0.5) and domain.length[facets].sum() == pytest.approx(1.0)
     assert np.all(sign == np.where(domain.centroid[domain.f2t[0][facets], 0] < 0.5, 1, -1))

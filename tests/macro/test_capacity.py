@@ -4,14 +4,20 @@ fluxes (Colombo, Goatin 2007) converging under refinement."""
 
 import numpy as np
 import pytest
+from click.testing import CliRunner
 
 from femcrowd import Simulation, load_case
+from femcrowd.case import Expression
+from femcrowd.cli import main
+from femcrowd.driver.reading import read_frame, read_history, read_pvd
+from femcrowd.macro import MacroSolver, MacroState
 from femcrowd.macro.diagnostics import invariants
 from femcrowd.macro.projection import Projection
+from femcrowd.macro.velocity import FieldVelocity
 from femcrowd.mesh import Boundary
 from femcrowd.mesh.floorplan import build_mesh
 
-from ..support import CASES
+from ..support import CASES, unit_square
 
 
 def steps(model, end):
@@ -59,15 +65,12 @@ def test_a_capacity_never_reached_leaves_the_free_exit(tmp_path):
     assert capped["door_pressure_exit"].max() == 0 and capped["flow_exit"].max() < 10
 
 
-def test_a_full_room_behind_a_capped_door_keeps_every_invariant(square_domain):
+def test_a_full_room_behind_a_capped_door_keeps_every_invariant():
     """The unit square full (rho = 1 everywhere), pushed towards its left side, an exit of capacity 0.3: every
     step has a saturated zone touching a door at capacity, the singular case of the projection's door
     nodes; evacuated = 0.3 t exactly, both complementarities hold."""
-    domain = square_domain(16, exits=["left"])
+    domain = unit_square(16, exits=["left"])
     boundary = Boundary(domain, capacity={"left": 0.3})
-    from femcrowd.case import Expression
-    from femcrowd.macro import MacroSolver, MacroState
-    from femcrowd.macro.velocity import FieldVelocity
 
     U = FieldVelocity(domain, Expression("-1"), Expression("0.3 * (0.5 - y)"))
     state = MacroState.initial(np.ones((1, domain.ncells)), 1)
@@ -83,11 +86,11 @@ def test_a_full_room_behind_a_capped_door_keeps_every_invariant(square_domain):
     assert np.abs(out - 0.3 * t).max() <= 1e-12
 
 
-def test_the_door_nodes_solve_their_complementarity_problem(square_domain):
+def test_the_door_nodes_solve_their_complementarity_problem():
     """One projection with door capacities, checked against its LCP: w = b + A phi >= 0, phi >= 0, phi w = 0 on
     the cells and on the door nodes (z = s - flux through the door), and the flux through each capped facet at
     most its room s."""
-    domain = square_domain(16, exits=["left", "bottom"])
+    domain = unit_square(16, exits=["left", "bottom"])
     doors = Boundary(domain, capacity={"left": 0.2}).at(0.0)
     caps = doors.caps
     rng = np.random.default_rng(3)
@@ -184,13 +187,6 @@ def test_door_columns_and_summary(tmp_path):
 def test_a_run_with_a_capped_door_resumes(tmp_path):
     """cases/room with a capped door, stopped at 6 s and continued to 12 s: the history (door flow and pressure
     included) and the last frame (the velocity uses the doors' pressure jumps) of the uninterrupted run."""
-    from click.testing import CliRunner
-
-    from femcrowd.cli import main
-    from femcrowd.driver.reading import read_frame, read_pvd
-
-    from ..support import read_history
-
     common = ["-q", "--set", "boundary.capacity={exit=0.3}"]
 
     def run(out, *args):
@@ -210,10 +206,6 @@ def test_a_run_with_a_capped_door_resumes(tmp_path):
 
 def test_info_estimates_a_case_with_capacities():
     """femcrowd info of cases/bottleneck (a capped exit): the estimate projects with the doors full."""
-    from click.testing import CliRunner
-
-    from femcrowd.cli import main
-
     result = CliRunner().invoke(main, ["info", str(CASES / "bottleneck")])
     assert result.exit_code == 0, result.output
     assert "capacity = {exit = 1.9}" in result.output and "per congested step" in result.output

@@ -16,8 +16,7 @@ from femcrowd.macro.exact import DiscProjection
 from femcrowd.mesh import Domain
 from femcrowd.studies.convergence import collect_rows, plan_study, run_task
 
-from ..support import ROOT
-from ..support import Projector as Projection
+from ..support import ROOT, Projector
 
 
 class ExactRates:
@@ -83,7 +82,7 @@ class ConvergenceDiscProjection(TestCase):
         for level in range(self.levels):
             domain = Domain(mesh.refined(level) if level else mesh, ["exit"])
             rho_tilde = domain.cell_average(exact.initial)
-            rho, phi, _ = Projection(domain)(rho_tilde)
+            rho, phi, _ = Projector(domain)(rho_tilde)
             # rho = 1 on r < R sqrt(c) and 0 beyond, up to the mesh: cells within h/8 of the circle
             r = np.hypot(*domain.points[domain.triangles].transpose(2, 0, 1))   # (M, 3) vertex radii
             tol = domain.h / 8

@@ -11,7 +11,7 @@ from femcrowd.macro.speed_law import SpeedLaw
 from femcrowd.macro.velocity import FieldVelocity
 from femcrowd.mesh import Boundary
 
-from ..support import CASES
+from ..support import CASES, unit_square
 
 #: a flux r f(r) with two humps (f = 1 until 0.3, 0.2 on [0.4, 0.9], 0 at 1): the downstream-speed flux
 HUMPS = "where(rho < 0.3, 1, where(rho < 0.4, 1 - 8 * (rho - 0.3), where(rho < 0.9, 0.2, 2 * (1 - rho))))"
@@ -39,9 +39,9 @@ def run_steps(domain, velocities, laws, rho0, steps=150, cfl=1.0):
 
 
 @pytest.mark.parametrize("law", ["linear", "weidmann", HUMPS])
-def test_one_population_stays_in_bounds_at_the_cfl_limit_without_projection(square_domain, law):
+def test_one_population_stays_in_bounds_at_the_cfl_limit_without_projection(law):
     """A compressive U (everyone pushed to the middle of the top side) on dense random data, at time.cfl = 1."""
-    domain = square_domain(16, exits=["right"])
+    domain = unit_square(16, exits=["right"])
     rho0 = np.random.default_rng(1).uniform(0.3, 1.0, domain.ncells)
     U = field(domain, "(0.5 - x) * 4", "1 + 0 * x")
     worst, solver = run_steps(domain, [U], [SpeedLaw(law, 5.4)], rho0[None])
@@ -51,8 +51,8 @@ def test_one_population_stays_in_bounds_at_the_cfl_limit_without_projection(squa
     assert worst["mass"] < 1e-13
 
 
-def test_the_flux_is_chosen_by_the_shape_of_g(square_domain):
-    domain = square_domain(4, exits=["right"])
+def test_the_flux_is_chosen_by_the_shape_of_g():
+    domain = unit_square(4, exits=["right"])
     U = field(domain, "1", "0")
     state = MacroState.initial(np.zeros((2, domain.ncells)), 1)
     solver = MacroSolver(domain, Boundary(domain), [U, U], laws=[SpeedLaw("linear"), SpeedLaw(HUMPS)])
@@ -60,9 +60,9 @@ def test_the_flux_is_chosen_by_the_shape_of_g(square_domain):
     assert godunov.godunov and not downstream.godunov
 
 
-def test_several_populations_share_the_bound_without_projection(square_domain):
+def test_several_populations_share_the_bound_without_projection():
     """Two populations walking through each other (one law each), dense: the total stays <= 1 at cfl = 1."""
-    domain = square_domain(16, exits=["left", "right"])
+    domain = unit_square(16, exits=["left", "right"])
     rng = np.random.default_rng(2)
     total = rng.uniform(0.5, 1.0, domain.ncells)
     share = rng.uniform(0, 1, domain.ncells)
@@ -96,11 +96,11 @@ def test_linear_law_summary_shows_no_projection():
 
 
 @pytest.mark.parametrize("law", ["linear", HUMPS])
-def test_facet_fluxes_are_the_prediction(square_domain, law):
+def test_facet_fluxes_are_the_prediction(law):
     """The facet fluxes that measurement lines count (solver.facet_flux) are those of the LWR step, for two
     populations seeing their total: rho~_i - rho_i = -(divergence of the facet fluxes) / |K|, and the exit
     facets carry what step() reports as evacuated."""
-    domain = square_domain(8, exits=["right"])
+    domain = unit_square(8, exits=["right"])
     rng = np.random.default_rng(3)
     rho0 = rng.uniform(0.0, 0.5, (2, domain.ncells))
     U, V = field(domain, "1", "0.3"), field(domain, "0.5", "-1")

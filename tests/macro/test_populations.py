@@ -6,6 +6,8 @@ import numpy as np
 from femcrowd.macro.populations import split_correction
 from femcrowd.mesh import Boundary
 
+from ..support import Projector, unit_square
+
 
 def explicit_split(domain, exits, flux, rho_tilde):
     """The split by the fractions of the upwind cell's prediction rho~ (what the implicit split avoids)."""
@@ -21,19 +23,19 @@ def explicit_split(domain, exits, flux, rho_tilde):
     return rho
 
 
-def stream_through_a_saturated_zone(square_domain):
+def stream_through_a_saturated_zone():
     """Population A piled up at 3 on the left, population B at rest (rho~ = 1) between A and the exit on the
     right: the pressure pushes A's excess out through B's cells, more mass than each of them holds."""
-    domain = square_domain(16, exits=["right"])
+    domain = unit_square(16, exits=["right"])
     exits = Boundary(domain).at(0.0)
     x = domain.centroid[:, 0]
     rho_tilde = np.array([np.where(x < 0.25, 3.0, 0.0), np.where(x < 0.25, 0.0, 1.0)])
     return domain, exits, rho_tilde
 
 
-def test_the_implicit_split_is_positive_and_conservative(square_domain, projector):
-    domain, exits, rho_tilde = stream_through_a_saturated_zone(square_domain)
-    project = projector(domain)
+def test_the_implicit_split_is_positive_and_conservative():
+    domain, exits, rho_tilde = stream_through_a_saturated_zone()
+    project = Projector(domain)
     total, phi, _ = project(rho_tilde.sum(axis=0))
     flux, _ = project.projection(rho_tilde.sum(axis=0))
     rho, pushed_out = split_correction(domain, exits, flux, rho_tilde, total)
@@ -48,9 +50,9 @@ def test_the_implicit_split_is_positive_and_conservative(square_domain, projecto
     assert explicit_split(domain, exits, flux, rho_tilde)[1].min() < -0.1
 
 
-def test_one_population_is_the_plain_correction(square_domain, projector):
-    domain, exits, rho_tilde = stream_through_a_saturated_zone(square_domain)
-    project = projector(domain)
+def test_one_population_is_the_plain_correction():
+    domain, exits, rho_tilde = stream_through_a_saturated_zone()
+    project = Projector(domain)
     flux, _ = project.projection(rho_tilde[0])
     total = flux.apply(rho_tilde[0], domain.area)
     rho, pushed_out = split_correction(domain, exits, flux, rho_tilde[:1], total)
@@ -58,12 +60,12 @@ def test_one_population_is_the_plain_correction(square_domain, projector):
     assert np.isclose(pushed_out.sum(), rho_tilde[0] @ domain.area - total @ domain.area, rtol=1e-13)
 
 
-def test_colours_of_one_crowd_are_split_in_proportion(square_domain, projector):
+def test_colours_of_one_crowd_are_split_in_proportion():
     """Two populations mixed in the same proportion everywhere stay in that proportion (y_i = constant)."""
-    domain, exits, rho_tilde = stream_through_a_saturated_zone(square_domain)
+    domain, exits, rho_tilde = stream_through_a_saturated_zone()
     total_tilde = rho_tilde.sum(axis=0)
     mixed = np.array([0.3 * total_tilde, 0.7 * total_tilde])
-    project = projector(domain)
+    project = Projector(domain)
     flux, _ = project.projection(total_tilde)
     total = flux.apply(total_tilde, domain.area)
     rho, _ = split_correction(domain, exits, flux, mixed, total)

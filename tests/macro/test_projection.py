@@ -6,7 +6,7 @@ import scipy.optimize
 
 from femcrowd.mesh import Boundary
 
-from ..support import Projector as Projection
+from ..support import Projector
 from ..support import unit_square as square_domain
 
 
@@ -27,7 +27,7 @@ def test_lcp_matches_an_independent_solver():
     domain = square_domain(4, exits=["left"])
     rng = np.random.default_rng(0)
     rho_tilde = rng.uniform(0.2, 1.6, domain.ncells)
-    rho, phi, info = Projection(domain)(rho_tilde)
+    rho, phi, info = Projector(domain)(rho_tilde)
     check_lcp(domain, rho_tilde, rho, phi)
     A, b = Boundary(domain).at(0).laplacian().toarray(), domain.area * (1 - rho_tilde)
     # LCP(w = A phi + b), A SPD <=> min 1/2 phi.A phi + b.phi over phi >= 0
@@ -42,14 +42,14 @@ def test_lcp_matches_an_independent_solver():
 def test_nothing_to_do_when_nothing_exceeds_one():
     domain = square_domain(4)
     rho_tilde = np.linspace(0, 1, domain.ncells)
-    rho, phi, info = Projection(domain)(rho_tilde)
+    rho, phi, info = Projector(domain)(rho_tilde)
     assert info["iterations"] == 0 and np.all(phi == 0) and np.array_equal(rho, rho_tilde)
 
 
 def test_mass_conserved_and_exit_flux_accounted():
     domain = square_domain(8, exits=["left"])
     rho_tilde = np.where(domain.centroid[:, 0] < 0.5, 1.5, 0.2)
-    rho, phi, _ = Projection(domain)(rho_tilde)
+    rho, phi, _ = Projector(domain)(rho_tilde)
     exit = Boundary(domain).at(0).exit
     exit_T = np.bincount(domain.f2t[0][exit], domain.transmissibility[exit], domain.ncells)
     lost = exit_T @ phi
@@ -63,7 +63,7 @@ def test_closed_room_fully_saturated_is_the_singular_case():
     x = domain.centroid
     bump = np.where(x[:, 0] + x[:, 1] < 0.6, 0.3, 0.0)
     rho_tilde = 1 + bump - (domain.area @ bump) / domain.area.sum()  # mean exactly 1, some cells > 1
-    rho, phi, info = Projection(domain)(rho_tilde)
+    rho, phi, info = Projector(domain)(rho_tilde)
     assert np.abs(rho - 1).max() < 1e-9
     assert phi.min() == 0 and phi.max() > 0
     assert abs(domain.area @ rho - domain.area @ rho_tilde) < 1e-12
@@ -72,12 +72,12 @@ def test_closed_room_fully_saturated_is_the_singular_case():
 def test_warm_start_gives_the_same_answer_in_fewer_iterations():
     domain = square_domain(16, exits=["left"])
     x = domain.centroid
-    projection = Projection(domain)
+    projection = Projector(domain)
     first = np.where(np.hypot(x[:, 0] - 0.5, x[:, 1] - 0.5) < 0.3, 1.4, 0.5)
     projection(first)
     second = first * (1 + 0.01 * np.sin(7 * x[:, 0]))
     rho_warm, phi_warm, info_warm = projection(second)
-    rho_cold, phi_cold, info_cold = Projection(domain)(second)
+    rho_cold, phi_cold, info_cold = Projector(domain)(second)
     assert np.allclose(phi_warm, phi_cold, atol=1e-12 * phi_cold.max())
     assert info_warm["iterations"] <= info_cold["iterations"]
     assert info_warm["iterations"] <= 3
@@ -88,7 +88,7 @@ def test_extreme_oversaturation_keeps_bounds(c):
     domain = square_domain(16, exits=["left", "right"])
     x = domain.centroid
     rho_tilde = np.where(np.hypot(x[:, 0] - 0.5, x[:, 1] - 0.5) < 0.1, c, 0.0)
-    rho, phi, _ = Projection(domain)(rho_tilde)
+    rho, phi, _ = Projector(domain)(rho_tilde)
     check_lcp(domain, rho_tilde, rho, phi)
 
 
@@ -98,7 +98,7 @@ def test_facet_fluxes_are_the_correction():
     domain = square_domain(8, exits=["left"])
     rho_tilde = np.where(domain.centroid[:, 0] < 0.5, 1.5, 0.2)
     exits = Boundary(domain).at(0.0)
-    projection = Projection(domain)
+    projection = Projector(domain)
     flux, _ = projection.projection(rho_tilde)
     G = flux.facet_flux(domain, exits)
     k0, k1 = domain.f2t

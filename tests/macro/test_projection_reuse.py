@@ -13,8 +13,7 @@ from femcrowd.macro.transport import UpwindTransport
 from femcrowd.macro.velocity import FieldVelocity
 from femcrowd.mesh import Boundary, load_domain
 
-from ..support import MESHES
-from ..support import Projector as Projection
+from ..support import MESHES, Projector
 
 
 def pushed_crowd():
@@ -38,11 +37,11 @@ def test_reused_solvers_match_fresh_solves_over_a_sequence_of_steps(direct_max, 
     """
     monkeypatch.setattr(warm_start, "PREDICT_MIN", predict_min)
     domain, rho, advance = pushed_crowd()
-    kept = Projection(domain, direct_max=direct_max)
+    kept = Projector(domain, direct_max=direct_max)
     solves, cold, rebuilds, band_solves, sizes = 0, 0, 0, 0, set()
     for _ in range(20):
         rho_tilde = advance(rho)
-        rho_ref, phi_ref, info_ref = Projection(domain)(rho_tilde)
+        rho_ref, phi_ref, info_ref = Projector(domain)(rho_tilde)
         rho_kept, phi_kept, info = kept(rho_tilde)
         assert np.abs(phi_kept - phi_ref).max() <= 1e-10 * phi_ref.max()
         assert np.abs(rho_kept - rho_ref).max() <= 1e-10
@@ -68,7 +67,7 @@ def test_predictor_saves_active_set_iterations_and_factorisations(monkeypatch):
     for predict_min in (0, 10**9):
         monkeypatch.setattr(warm_start, "PREDICT_MIN", predict_min)
         domain, rho, advance = pushed_crowd()
-        kept = Projection(domain)
+        kept = Projector(domain)
         iterations = factorizations = band_solves = 0
         for step in range(30):
             rho, phi, info = kept(advance(rho))
@@ -86,7 +85,7 @@ def test_predictor_saves_active_set_iterations_and_factorisations(monkeypatch):
 
 def test_adjacency_table_lists_the_off_diagonal_entries_of_A():
     domain = load_domain(MESHES / "room_one_door.msh", ["exit"])
-    A = Projection(domain).projection.A
+    A = Projector(domain).projection.A
     table = adjacency_table(A)
     for cell in (0, 17, domain.ncells - 1):
         row = A[cell]

@@ -4,7 +4,12 @@ import numpy as np
 import pytest
 
 from femcrowd import Simulation, load_case
+from femcrowd.case import Expression
 from femcrowd.errors import InputError
+from femcrowd.macro import MacroState
+from femcrowd.macro.transport import ImplicitUpwindTransport, UpwindTransport
+from femcrowd.macro.velocity import ExitsVelocity
+from femcrowd.mesh import Boundary
 
 from ..support import CASES
 
@@ -53,12 +58,6 @@ def test_implicit_transport_keeps_the_invariants_at_large_steps(cfl):
 def test_implicit_transport_is_consistent_and_its_ordered_solve_exact(room_domain):
     """One implicit step differs from an explicit one by O(dt^2); solved in the order of the distance
     to the exits (little fill) it equals the solve in a fill-reducing order."""
-    from femcrowd.case import Expression
-    from femcrowd.macro import MacroState
-    from femcrowd.macro.transport import ImplicitUpwindTransport, UpwindTransport
-    from femcrowd.macro.velocity import ExitsVelocity
-    from femcrowd.mesh import Boundary
-
     exits = Boundary(room_domain).at(0.0)
     velocity = ExitsVelocity(room_domain, Expression("1"))
     normal = velocity.normal_on_facets(MacroState.initial(np.zeros((1, room_domain.ncells)), 1), exits)

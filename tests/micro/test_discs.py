@@ -3,10 +3,13 @@
 import numpy as np
 import pytest
 
+from femcrowd import Simulation, load_case
 from femcrowd.micro import MicroSimulation, project
 from femcrowd.micro.contacts import CandidateList, WallSet, merge_collinear
 from femcrowd.micro.projection import NewtonPattern, kkt_residual
 from femcrowd.micro.sampling import read_discs_csv, sample_discs, target_count
+
+from ..support import CASES
 
 
 def box(x0, y0, x1, y1):
@@ -249,10 +252,6 @@ def test_a_warm_jam_is_projected_to_its_certified_accuracy():
 def test_the_history_reports_overlap_gap_and_change():
     """cases/narrow-door-micro jams at the door: every step's overlap is below 1e-9 r and its certified gap
     below 1e-7; the jammed steps are solved by the interior point (gap or change > 0 on some)."""
-    from femcrowd import Simulation, load_case
-
-    from ..support import CASES
-
     result = Simulation(load_case(CASES / "narrow-door-micro", {"time.end": 15.0})).run()
     h, s = result.history, result.summary
     assert h["overlap_r"].max() <= 1e-9 and h["gap"].max() <= 1e-7

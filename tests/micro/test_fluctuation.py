@@ -15,11 +15,11 @@ from click.testing import CliRunner
 from femcrowd import Simulation, load_case
 from femcrowd.cli import main
 from femcrowd.driver.micro_model import MicroModel
-from femcrowd.driver.reading import read_frame, read_pvd
+from femcrowd.driver.reading import read_frame, read_history, read_pvd
 from femcrowd.micro import MicroSimulation
 from femcrowd.micro.fluctuation import FLUCTUATION_TIME, Fluctuation
 
-from ..support import CASES, read_history
+from ..support import CASES
 from .test_discs import crowd_in_room_with_door, pairwise_min_gap
 
 #: the value of docs/micro.md ("Arch-breaking fluctuation"): all discs through a 0.5 m door

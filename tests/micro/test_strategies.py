@@ -4,7 +4,8 @@ sees, and the strategies "decelerate" and "bypass" of Maury et al. (2011) agains
 import numpy as np
 import pytest
 
-from femcrowd import Simulation, load_case
+from femcrowd import Simulation, load_case, run
+from femcrowd.driver.reading import read_frame, read_history, read_pvd
 from femcrowd.macro.speed_law import SpeedLaw
 from femcrowd.micro import MicroSimulation
 from femcrowd.micro.sampling import HEX_PACKING as PACKING
@@ -85,11 +86,6 @@ def test_counterflow_push_gridlocks_bypass_crosses():
 
 def test_two_groups_micro_outputs(tmp_path):
     """Per-population columns and the population of each disc in the frames; each group leaves by its door."""
-    from femcrowd import run
-    from femcrowd.driver.reading import read_frame, read_pvd
-
-    from ..support import read_history
-
     case = load_case(CASES / "two-groups-micro", {"time.end": 30.0, "output.every": 10.0})
     summary = run(case, tmp_path).summary
     h = read_history(tmp_path / "history.csv")

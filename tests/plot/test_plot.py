@@ -10,10 +10,12 @@ import pytest
 import pyvista as pv
 from click.testing import CliRunner
 
+from femcrowd import load_case, run
 from femcrowd.cli import main
 from femcrowd.driver.output import FrameSeries, HistoryFile, disc_frame, write_json
 from femcrowd.mesh import file_checksum
 from femcrowd.plot.canvas import CMAPS, EXIT, FLOOR, WALL, Canvas, nice_top, tick_count
+from femcrowd.plot.measurements import FRUIN_COLOURS
 
 from ..support import ROOT
 
@@ -188,9 +190,6 @@ def test_mp4_without_imageio_ffmpeg_is_one_line_and_writes_nothing(short_run, tm
 def test_plot_of_a_run_with_measurements(tmp_path):
     """N-t and flow of the lines, density-speed of the areas, the level-of-service map of the maximum
     density, only for a run with measurements.csv; the map shows the levels of the densities met."""
-    from femcrowd import load_case, run
-    from femcrowd.plot.measurements import FRUIN_COLOURS
-
     lines = [{"name": "door", "from": [10, 2.5], "to": [10, 3.5]}]
     areas = [{"name": "front", "polygon": [[8, 2], [10, 2], [10, 4], [8, 4]]}]
     case = load_case(ROOT / "cases" / "room", {"time.end": 6.0, "model.rho_max": 5.4, "initial.density": 4.0,

@@ -15,11 +15,11 @@ loose (only their signs matter) until S (nearly) settles (inexact Newton), and t
 stops only on an S reproduced by a tight solve.
 """
 
-import time
 from dataclasses import dataclass
 
 import numpy as np
 
+from ...timer import Stopwatch, timed
 from .rooms import ClosedRooms
 from .sets import CellSets, product, restriction
 from .solvers import CellOrder, SaturatedSolver
@@ -111,25 +111,24 @@ class Projection:
         (new envelopes / AMG set-ups), and seconds spent in detect (rho~ > 1), predict (the
         predictor), setup (numeric factorisations, AMG set-ups), solve and active_set (the rest).
         """
-        tic = time.perf_counter()
-        b = self.area[:self.ncells] * (1.0 - rho_tilde)
-        over = np.flatnonzero(b < 0)
-        if self.caps is not None:   # no room given: the doors are full (the prediction passed their capacity)
-            b = np.concatenate([b, np.zeros(self.caps.nodes) if room is None else room])
+        clock = Stopwatch()
         info = {"iterations": 0, "factorizations": 0, "band_solves": 0, "linear_residual": 0.0, "unknowns": 0,
                 "linear_iterations": 0, "rebuilds": 0, "predict": 0.0, "setup": 0.0, "solve": 0.0}
+        with timed(info, "detect"):
+            b = self.area[:self.ncells] * (1.0 - rho_tilde)
+            over = np.flatnonzero(b < 0)
+            if self.caps is not None:   # no room given: the doors are full (the prediction passed their capacity)
+                b = np.concatenate([b, np.zeros(self.caps.nodes) if room is None else room])
+            # cells that enter S wherever they are (w = b off the neighbourhood of S)
+            strict = over[b[over] < -self.tol * self.area[over]]
         if not over.size:
             self.warm.forget()
-            info.update(detect=time.perf_counter() - tic, active_set=0.0)
+            info["active_set"] = 0.0
             return PressureFlux(np.zeros(self.ncells), np.zeros(0, np.intp), np.zeros(0)), info
-        # cells that enter S wherever they are (w = b off the neighbourhood of S)
-        strict = over[b[over] < -self.tol * self.area[over]]
-        toc = time.perf_counter()
-        info["detect"] = toc - tic
         spills, tight = 0, False  # inexact Newton: loose solves until S (nearly) settles, then tight ones
         if self.reuse and self.warm.can_predict():
-            S, x0 = self.warm.predict(b, strict, info)
-            info["predict"] = time.perf_counter() - toc
+            with timed(info, "predict"):
+                S, x0 = self.warm.predict(b, strict, info)
             spills, tight = 1, True
         else:
             S, x0, updated = self.warm.first_update(over, b, strict, self._next)
@@ -140,7 +139,7 @@ class Projection:
         phi = np.zeros_like(b)
         phi[S] = phi_S
         info["unknowns"] = len(S)
-        info["active_set"] = time.perf_counter() - tic - info["detect"] - info["predict"] - info["setup"] \
+        info["active_set"] = clock.seconds - info["detect"] - info["predict"] - info["setup"] \
             - info["solve"]
         if self.caps is None:
             return PressureFlux(phi, L, Aphi), info

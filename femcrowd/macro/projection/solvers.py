@@ -9,13 +9,13 @@ hierarchy kept while S is unchanged. Iterative solves stop when every cell's den
 rho <= 1 + tol holds whatever the conditioning. Measured choices: docs/performance.md.
 """
 
-import time
 
 import numpy as np
 import pymetis
 
 from ...linalg.amg import Hierarchy, pcg
 from ...linalg.envelope import EnvelopeCholesky
+from ...timer import timed
 
 #: layers of neighbours around S in the envelope of a factorisation (the front moves a few cells per step)
 ENVELOPE_LAYERS = 8
@@ -70,31 +70,27 @@ class SaturatedSolver:
     def solve(self, matrix, cells, rhs, x0, info, tol):
         """A_SS x = rhs on S = cells: factorised up to ``direct_max`` unknowns, else AMG + CG (on the
         matrix that matrix() builds) to the density tolerance tol from x0. Counts in info."""
-        tic = time.perf_counter()
         if len(cells) <= self.direct_max:
-            factor = self.factor if self.reuse else None
-            if factor is None or not factor.fits(cells):
-                factor = self.factor = EnvelopeCholesky(self.A, self.envelope(cells), len(cells),
-                                                         self.nested_dissection())
-                info["rebuilds"] += 1
-            info["factorizations"] += factor.prepare(cells)
-            toc = time.perf_counter()
-            info["setup"] += toc - tic
-            x = factor.solve(cells, rhs)
-            info["solve"] += time.perf_counter() - toc
-            return x
+            with timed(info, "setup"):
+                factor = self.factor if self.reuse else None
+                if factor is None or not factor.fits(cells):
+                    factor = self.factor = EnvelopeCholesky(self.A, self.envelope(cells), len(cells),
+                                                             self.nested_dissection())
+                    info["rebuilds"] += 1
+                info["factorizations"] += factor.prepare(cells)
+            with timed(info, "solve"):
+                return factor.solve(cells, rhs)
         # An AMG hierarchy is reused only on the same S: one built for a slightly different S
         # took more CG iterations than its set-up saves (docs/performance.md).
-        K = matrix()
-        self.factor = None  # no longer the factorisation of the last S
-        hierarchy = self.hierarchy if self.reuse else None
-        if hierarchy is None or not np.array_equal(hierarchy.cells, cells):
-            hierarchy = self.hierarchy = Hierarchy(K, cells)
-            info["rebuilds"] += 1
-        toc = time.perf_counter()
-        info["setup"] += toc - tic
-        x, its, _ = pcg(K, rhs, x0, hierarchy.vcycle, self._threshold(K, cells, tol), maxiter=500)
-        info["solve"] += time.perf_counter() - toc
+        with timed(info, "setup"):
+            K = matrix()
+            self.factor = None  # no longer the factorisation of the last S
+            hierarchy = self.hierarchy if self.reuse else None
+            if hierarchy is None or not np.array_equal(hierarchy.cells, cells):
+                hierarchy = self.hierarchy = Hierarchy(K, cells)
+                info["rebuilds"] += 1
+        with timed(info, "solve"):
+            x, its, _ = pcg(K, rhs, x0, hierarchy.vcycle, self._threshold(K, cells, tol), maxiter=500)
         info["linear_iterations"] += its
         return x
 
