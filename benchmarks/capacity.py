@@ -42,7 +42,7 @@ def worker(target, capacity, steps):
         (Path(tmp) / "case.toml").write_text(case_text(mesh_file(target), capacity))
         model = femcrowd.Simulation(femcrowd.load_case(tmp)).model
         step, timers, infos = timed_steps(model, steps)
-    at_capacity = sum("doors" in info and info["doors"]["exit"][1] > 0 for info in infos)
+    at_capacity = sum(info.doors is not None and info.doors["exit"][1] > 0 for info in infos)
     print(json.dumps({"step": step, "cells": model.domain.ncells, "at_capacity": at_capacity, **timers}))
 
 

@@ -128,7 +128,7 @@ def measure(n, steps, radius=0.2, tau=0.05, seed=0, samples=10) -> dict:
         overlap = max(overlap, getattr(info, "overlap_r", info.max_overlap / radius))
         gap, change = max(gap, getattr(info, "gap", 0.0)), max(change, getattr(info, "change", 0.0))
         if info.contacts >= info.count + info.evacuated_now:
-            jammed.append(info.step_seconds)
+            jammed.append(info.seconds)
             if sample and hasattr(info, "gap"):
                 fast, tight = project(C, U, d, lam0=lam0), project(C, U, d, lam0=lam0, gap_tol=1e-12)
                 cost = [0.5 * float(np.sum((r.u - U) ** 2)) for r in (fast, tight)]

@@ -107,7 +107,7 @@ def one_size(target, steps, capacity=None):
         tic = time.perf_counter()
         result = solver.step(state)
         step = time.perf_counter() - tic
-        record.append({**result["projection"], "step": step,
+        record.append({**result.projection, "step": step,
                        "transport": solver.timers["transport"] - timers.get("transport", 0.0),
                        "projection": solver.timers["projection"] - timers.get("projection", 0.0)})
         mass = domain.area @ state.density
@@ -118,7 +118,7 @@ def one_size(target, steps, capacity=None):
         if k % 3 == 2 or k == steps - 1:  # the same saturated system solved from scratch by AMG
             S = projection.warm.active
             K = projection.A[S][:, S].tocsr()
-            rho_tilde = transport.step(before, result["dt"])[0]  # the step's prediction, again
+            rho_tilde = transport.step(before, result.dt)[0]  # the step's prediction, again
             rhs = domain.area[S] * (rho_tilde[S] - 1.0)
             tic = time.perf_counter()
             ml = amg_hierarchy(K)

@@ -7,6 +7,7 @@ from ..errors import InputError
 from ..linalg.vectors import dot
 from ..macro import MacroSolver, MacroState
 from ..macro.diagnostics import invariants, population_invariants
+from ..macro.solver import MacroStep
 from .checkpoint import parts, restore_parts
 from .measurements import MacroMeasurements
 from .model import SOURCE_COLUMNS, Evacuation, landing
@@ -137,7 +138,7 @@ class MacroModel:
     def timers(self) -> dict:
         return self.solver.timers
 
-    def step(self, until: float) -> dict:
+    def step(self, until: float) -> MacroStep:
         """One step, not beyond `until` nor the next door change; the solver's diagnostics of it. Notes the mass
         inside (the empty check) and the evacuation time (the first time less than empty_mass is inside, nobody
         arriving)."""
@@ -146,11 +147,10 @@ class MacroModel:
         self.evacuation.after_step(self.t, self.inside, self.empty_mass)
         return info
 
-    def row(self, info=None) -> dict:
+    def row(self, info: MacroStep | None = None) -> dict:
         """The diagnostics of the current state (info: the step's, None for the initial state)."""
         d = invariants(self.domain, self.state)
-        if info is None:
-            info = {"dt": 0.0, "active_set_iterations": 0, "linear_residual": 0.0, "step_seconds": 0.0}
+        step = (0.0, 0, 0.0, 0.0) if info is None else (info.dt, info.iterations, info.seconds, info.linear_residual)
         r = self.rho_max
         supplied = self.initial_mass + self.inflow
         error = abs(d["mass"] + d["evacuated"] - supplied) / max(supplied, 1e-300)
@@ -160,19 +160,19 @@ class MacroModel:
             by_exit.update(inflow=self.inflow * r, queued=self.sources.queued * r)
         if self.doors:
             by_exit.update(self._door_row(info))
-        return {**by_exit, "time": self.state.t, "dt": info["dt"], "mass": d["mass"] * r,
+        return {**by_exit, "time": self.state.t, "dt": step[0], "mass": d["mass"] * r,
                 "evacuated": d["evacuated"] * r, "max_density": d["max_density"] * r,
                 "saturated_area": d["saturated_area"], "max_pressure": d["max_pressure"],
-                "active_set_iterations": info["active_set_iterations"], "step_seconds": info["step_seconds"],
+                "active_set_iterations": step[1], "step_seconds": step[2],
                 "min_density": d["min_density"] * r, "min_pressure": d["min_pressure"],
-                "complementarity": d["complementarity"], "linear_residual": info["linear_residual"],
+                "complementarity": d["complementarity"], "linear_residual": step[3],
                 "mass_error": error, "pressure_unsaturated": d["pressure_unsaturated"],
                 "non_finite": d["non_finite"], **(self._population_row() if self.several else {})}
 
     def _door_row(self, info) -> dict:
         """flow_<door> (persons per second), door_pressure_<door> of each door with a capacity in the step of
         info, and the step's seconds and people if the door was at capacity (to 1e-9 of it)."""
-        row, flows = {}, (info or {}).get("doors", {})
+        row, flows = {}, (info.doors if info is not None else None) or {}
         for door in self.doors:
             flow, pressure = flows.get(door.name, (0.0, 0.0))
             at_capacity = flow >= (1 - 1e-9) * door.capacity * door.width and flow > 0

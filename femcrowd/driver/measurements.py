@@ -155,7 +155,7 @@ class MacroMeasurements:
         through = self.flux.after_step(result) * self.rho_max if self.flux is not None else np.zeros(0)
         self.count += through
         np.maximum(self.max_density, state.density * self.rho_max, out=self.max_density)
-        self.recorder.add(self._row(solver, state, through, result["dt"]))
+        self.recorder.add(self._row(solver, state, through, result.dt))
 
     def snapshot(self) -> dict:
         return {"count": self.count.copy(), "max_density": self.max_density.copy(),

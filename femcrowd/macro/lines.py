@@ -21,5 +21,5 @@ class LineFlux:
 
     def after_step(self, result) -> np.ndarray:
         """The mass that crossed each line in the step just made."""
-        moved = self._moved + result["flux"].facet_flux(self.domain, self._doors, self.facets)
+        moved = self._moved + result.flux.facet_flux(self.domain, self._doors, self.facets)
         return np.bincount(self.owner, self.sign * moved, self.lines)

@@ -16,9 +16,11 @@ exceeds 1 and the projection is never built nor called. Several populations shar
 by an implicit upwind split of its facet fluxes (populations.py).
 """
 
+from dataclasses import dataclass
 
 import numpy as np
 
+from ..step import Step
 from ..timer import Stopwatch, Timer
 from .populations import split_correction
 from .projection import CellOrder, PressureFlux, Projection
@@ -27,16 +29,25 @@ from .state import MacroState
 from .transport import TRANSPORTS
 from .transport.lwr import LWRTransport, joint_max_dt
 
-#: the info of a step whose correction is not needed (no population pushes at saturation)
-NO_PROJECTION = {"iterations": 0, "factorizations": 0, "band_solves": 0, "linear_residual": 0.0, "unknowns": 0,
-                 "linear_iterations": 0, "rebuilds": 0, "predict": 0.0, "setup": 0.0, "solve": 0.0,
-                 "detect": 0.0, "active_set": 0.0}
+
+@dataclass
+class MacroStep(Step):
+    """A step of the density (iterations: the projection's active-set iterations): linear_residual and unknowns
+    of its projection, the projection's counters and seconds (``Projection.__call__``), the pressure flux of the
+    correction, and the doors with a capacity ({door: (flow, pressure)}, Capacities.report; None without)."""
+
+    linear_residual: float
+    unknowns: int
+    projection: dict
+    flux: PressureFlux
+    doors: dict | None = None
 
 
 class MacroSolver:
     """Catching-up steps of a MacroState (PyClaw's Solver), with the operators of each set of open exits
     built once: the Laplacian's projection and the transport (rebuilt every step for a U that depends on
-    t); ``before_step`` hooks f(solver, state, dt), ``after_step`` hooks f(solver, state, info)."""
+    t); ``before_step`` hooks f(solver, state, dt), ``after_step`` hooks f(solver, state, step) (its
+    MacroStep)."""
 
     def __init__(self, domain, boundary, velocities, transport="upwind", cfl=0.5, dt=None,
                  direct_max=1_000_000, tol=1e-12, laws=None):
@@ -96,10 +107,9 @@ class MacroSolver:
             return self.cfl * max_dt
         return min(self.fixed_dt, min(s.max_cfl * s.max_dt for s in schemes), max_dt)
 
-    def step(self, state: MacroState, until: float = np.inf) -> dict:
+    def step(self, state: MacroState, until: float = np.inf) -> MacroStep:
         """Advance the state by one step, not beyond time ``until`` (a shorter step lands on it: the controller
-        passes the frame times and the door changes); return the step's diagnostics (dt, active_set_iterations,
-        linear_residual, unknowns, step_seconds, the projection's info, the doors' flows)."""
+        passes the frame times and the door changes); return its MacroStep."""
         clock = Stopwatch()
         with self.timers("transport"):   # with the step's set-up and the hooks before it
             exits = self.boundary.at(state.t)
@@ -113,7 +123,7 @@ class MacroSolver:
             rho_tilde, outflow, passed = self._predict(state, schemes, exits, dt)
         with self.timers("projection"):   # with the state update and the hooks after it
             result = self._correct_step(state, rho_tilde, outflow, passed, exits, dt, t_new)
-            result["step_seconds"] = clock.seconds
+            result.seconds = clock.seconds
         return result
 
     def _predict(self, state, schemes, exits, dt):
@@ -128,7 +138,7 @@ class MacroSolver:
         passed = None if caps is None else caps.limit(rho_tilde, outflow, through, dt, self.domain.area)
         return rho_tilde, outflow, passed
 
-    def _correct_step(self, state, rho_tilde, outflow, passed, exits, dt, t_new) -> dict:
+    def _correct_step(self, state, rho_tilde, outflow, passed, exits, dt, t_new) -> MacroStep:
         """The correction of the step and the new state; the step's diagnostics (the after_step hooks run on
         them)."""
         caps = exits.caps
@@ -139,7 +149,7 @@ class MacroSolver:
             outflow += pushed_out
         else:
             empty = np.zeros(0, np.intp)
-            flux, info = PressureFlux(np.zeros(self.domain.ncells), empty, np.zeros(0)), dict(NO_PROJECTION)
+            flux, info = PressureFlux(np.zeros(self.domain.ncells), empty, np.zeros(0)), Projection.counters()
             state.rho = rho_tilde
         state.p = flux.phi / dt
         if self.boundary.capped:
@@ -147,10 +157,10 @@ class MacroSolver:
         state.evacuated += outflow
         state.t = t_new
         state.steps += 1
-        result = {"dt": dt, "active_set_iterations": info["iterations"], "linear_residual": info["linear_residual"],
-                  "unknowns": info["unknowns"], "projection": info, "flux": flux}
-        if caps is not None:
-            result["doors"] = caps.report(passed, flux.facet_flux(self.domain, exits, caps.facets), flux.door, dt)
+        doors = None if caps is None else caps.report(passed, flux.facet_flux(self.domain, exits, caps.facets),
+                                                       flux.door, dt)
+        result = MacroStep(t_new, dt, 0.0, info["iterations"], info["linear_residual"], info["unknowns"], info,
+                           flux, doors)
         for hook in self.after_step:
             hook(self, state, result)
         return result

@@ -32,6 +32,7 @@ from typing import Callable, Iterator
 
 import numpy as np
 
+from ..step import Step
 from ..timer import Stopwatch
 from .contacts import WallSet, as_segments, merge_collinear
 from .fluctuation import FLUCTUATION_TIME, Fluctuation
@@ -42,17 +43,14 @@ __all__ = ["StepInfo", "MicroSimulation", "exit_crossings"]
 
 
 @dataclass
-class StepInfo:
-    """Diagnostics of one step (arrays describe the discs left after it).
+class StepInfo(Step):
+    """A step of the discs (iterations: the projection's): diagnostics, and arrays of the discs left after it.
 
-    ids: original indices of the remaining discs; q: their centres after the
-    step; r: radii; u: the velocity of the step; pressure: sum of the contact
-    multipliers lambda touching each disc (Maury 2014, eq. 16).
+    ids: original indices of the remaining discs; q: their centres after the step; r: radii; u: the velocity
+    of the step; pressure: sum of the contact multipliers lambda touching each disc (Maury 2014, eq. 16).
     """
 
     step: int
-    time: float  # time at the end of the step
-    dt: float
     count: int
     evacuated: int  # total so far
     evacuated_now: int
@@ -61,14 +59,12 @@ class StepInfo:
     overlap_r: float    # the same divided by the smaller radius of each pair (of the disc, at a wall)
     gap: float          # certified relative objective gap of the projection (0: exact to round-off)
     change: float       # velocity change of one more interior-point step (0: exact)
-    solver_iterations: int
     factorizations: int
     kkt: float
     converged: bool
     fallback: bool  # the exact projection needed its interior-point stage
     rebuilds: int  # candidate-list rebuilds in this step
     candidates: int
-    step_seconds: float
     ids: np.ndarray = field(repr=False)
     q: np.ndarray = field(repr=False)
     r: np.ndarray = field(repr=False)
@@ -87,9 +83,9 @@ class StepInfo:
             "overlap_r": self.overlap_r,
             "gap": self.gap,
             "change": self.change,
-            "solver_iterations": self.solver_iterations,
+            "solver_iterations": self.iterations,
             "kkt": self.kkt,
-            "step_seconds": self.step_seconds,
+            "step_seconds": self.seconds,
         }
 
 
@@ -288,14 +284,14 @@ class MicroSimulation:
             overlap_r=overlap_r,
             gap=0.0 if res is None else res.gap,
             change=0.0 if res is None else res.change,
-            solver_iterations=0 if res is None else res.iterations,
+            iterations=0 if res is None else res.iterations,
             factorizations=0 if res is None else res.factorizations,
             kkt=0.0 if res is None else res.kkt,
             converged=True if res is None else res.converged,
             fallback=False if res is None else res.fallback,
             rebuilds=rebuilds,
             candidates=self.contacts.candidates,
-            step_seconds=clock.seconds,
+            seconds=clock.seconds,
             ids=self.ids,
             q=self.q,
             r=self.r,

@@ -25,7 +25,7 @@ def steps(model, end):
     rows = []
     while model.state.t < end - 1e-12:
         info = model.solver.step(model.state, end)
-        rows.append({"t": model.state.t, "evacuated": model.state.evacuated.sum(), "doors": info["doors"],
+        rows.append({"t": model.state.t, "evacuated": model.state.evacuated.sum(), "doors": info.doors,
                      **invariants(model.domain, model.state)})
     return rows
 
@@ -80,7 +80,7 @@ def test_a_full_room_behind_a_capped_door_keeps_every_invariant():
     while state.t < 1.0:
         info = solver.step(state)
         rows.append({"t": state.t, "evacuated": state.evacuated.sum(), **invariants(domain, state)})
-        assert info["doors"]["left"][1] > 0
+        assert info.doors["left"][1] > 0
     assert_invariants(rows, 1.0)
     t, out = np.array([r["t"] for r in rows]), np.array([r["evacuated"] for r in rows])
     assert np.abs(out - 0.3 * t).max() <= 1e-12
@@ -138,7 +138,7 @@ def test_an_interior_door_passes_exactly_its_capacity(tmp_path, transport):
     while model.state.t < 2.5:
         info = model.solver.step(model.state)
         rows.append({"t": model.state.t, "behind": domain.area[behind] @ model.state.density[behind],
-                     "flow": info["doors"]["door"][0], "pressure": info["doors"]["door"][1],
+                     "flow": info.doors["door"][0], "pressure": info.doors["door"][1],
                      "evacuated": model.state.evacuated.sum(), **invariants(domain, model.state)})
     assert_invariants(rows, mass0)
     t, left = np.array([r["t"] for r in rows]), np.array([r["behind"] for r in rows])

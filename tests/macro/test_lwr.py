@@ -34,7 +34,7 @@ def run_steps(domain, velocities, laws, rho0, steps=150, cfl=1.0):
         worst["min"] = min(worst["min"], state.rho.min())
         balance = state.rho @ domain.area + state.evacuated.sum(axis=1) - mass0
         worst["mass"] = max(worst["mass"], np.abs(balance).max() / mass0.max())
-        worst["projection"] += info["active_set_iterations"]
+        worst["projection"] += info.iterations
     return worst, solver
 
 

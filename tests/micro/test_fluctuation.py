@@ -207,6 +207,6 @@ def test_state_and_restore_continue_exactly():
     b.restore(state)
     for _ in range(30):
         ia, ib = a.step(), b.step()
-        assert np.array_equal(ia.q, ib.q) and np.array_equal(ia.u, ib.u) and ia.solver_iterations == \
-            ib.solver_iterations
+        assert np.array_equal(ia.q, ib.q) and np.array_equal(ia.u, ib.u) and ia.iterations == \
+            ib.iterations
     assert np.array_equal(a.fluctuation.xi, b.fluctuation.xi)

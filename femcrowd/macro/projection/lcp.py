@@ -100,6 +100,13 @@ class Projection:
         # iterations as the front crosses cells; the M-matrix bound is n + 1 (monotone iterates).
         self.max_iterations = max_iterations or len(self.area) + 1
 
+    @staticmethod
+    def counters() -> dict:
+        """The info of a projection (see __call__) at zero: a step that needs none reports these."""
+        return {"iterations": 0, "factorizations": 0, "band_solves": 0, "linear_residual": 0.0, "unknowns": 0,
+                "linear_iterations": 0, "rebuilds": 0, "detect": 0.0, "predict": 0.0, "setup": 0.0, "solve": 0.0,
+                "active_set": 0.0}
+
     def __call__(self, rho_tilde: np.ndarray, room: np.ndarray = None):
         """Return (PressureFlux, info) for one correction step of the total density rho~ (room: what each door
         node can still let through, Capacities.room, with door capacities; default 0).
@@ -112,8 +119,7 @@ class Projection:
         predictor), setup (numeric factorisations, AMG set-ups), solve and active_set (the rest).
         """
         clock = Stopwatch()
-        info = {"iterations": 0, "factorizations": 0, "band_solves": 0, "linear_residual": 0.0, "unknowns": 0,
-                "linear_iterations": 0, "rebuilds": 0, "predict": 0.0, "setup": 0.0, "solve": 0.0}
+        info = self.counters()
         with timed(info, "detect"):
             b = self.area[:self.ncells] * (1.0 - rho_tilde)
             over = np.flatnonzero(b < 0)
@@ -123,7 +129,6 @@ class Projection:
             strict = over[b[over] < -self.tol * self.area[over]]
         if not over.size:
             self.warm.forget()
-            info["active_set"] = 0.0
             return PressureFlux(np.zeros(self.ncells), np.zeros(0, np.intp), np.zeros(0)), info
         spills, tight = 0, False  # inexact Newton: loose solves until S (nearly) settles, then tight ones
         if self.reuse and self.warm.can_predict():
