@@ -31,6 +31,7 @@ from ..errors import InputError
 from ..macro.lines import LineFlux
 from ..mesh import Domain
 from ..mesh.outline import walkable_area
+from ..micro.crossings import segment_crossings
 from ..micro.sampling import HEX_PACKING
 from .recorder import Column, Recorder
 
@@ -189,6 +190,7 @@ class MicroMeasurements:
         self.lines, self.areas, self.rho_max = lines, areas, rho_max
         self.recorder = Recorder(measurement_columns(lines, areas))
         self.count = np.zeros(len(lines))
+        self.segments = np.array([[line.a, line.b] for line in lines]).reshape(-1, 2, 2)
 
     def start(self, sim) -> None:
         """The initial row."""
@@ -204,7 +206,7 @@ class MicroMeasurements:
 
     def record(self, before: np.ndarray, sim, info) -> None:
         """A step's row from the centres before it and after the move (sim.moved_to, before removals)."""
-        through = np.array([crossings(before, sim.moved_to, line.a, line.b) for line in self.lines])
+        through = segment_crossings(before, sim.moved_to, self.segments).sum(axis=0, dtype=int)
         self.count += through
         self.recorder.add(self._row(sim.t, through, info.dt, info.q, info.r, info.u, info.pressure))
 
@@ -220,19 +222,3 @@ class MicroMeasurements:
             row[f"{area.name}_speed"] = float(np.hypot(*u[inside].T).mean()) if inside.any() else 0.0
             row[f"{area.name}_pressure"] = float(pressure[inside].max()) if inside.any() else 0.0
         return row
-
-
-def crossings(p0: np.ndarray, p1: np.ndarray, a: np.ndarray, b: np.ndarray) -> int:
-    """Signed number of the moves p0 -> p1 (n, 2) that cross the segment a -> b: +1 from its left to its
-    right, -1 back (a move that ends on the line crosses at its next move, as in PedPy)."""
-    if not len(p0):
-        return 0
-    d = b - a
-    side = lambda p: d[0] * (p[:, 1] - a[1]) - d[1] * (p[:, 0] - a[0])  # noqa: E731
-    s0, s1 = side(p0), side(p1)
-    cross = (s0 * s1 < 0) | ((s0 == 0) & (s1 != 0))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        x = p0 + (s0 / np.where(cross, s0 - s1, 1.0))[:, None] * (p1 - p0)
-    mu = (x - a) @ d / (d @ d)
-    hit = cross & (mu >= 0) & (mu <= 1)
-    return int(np.where(s0[hit] != 0, np.sign(s0[hit]), -np.sign(s1[hit])).sum())

@@ -11,7 +11,7 @@ Pure-array interface:
 from .contacts import CandidateList, Constraints, WallSet
 from .projection import ProjectionResult, kkt_residual, project
 from .sampling import read_discs_csv, sample_discs, target_count
-from .scheme import MicroSimulation, StepInfo, exit_crossings
+from .scheme import MicroSimulation, StepInfo
 
 __all__ = [
     "CandidateList",
@@ -22,7 +22,6 @@ __all__ = [
     "project",
     "MicroSimulation",
     "StepInfo",
-    "exit_crossings",
     "read_discs_csv",
     "sample_discs",
     "target_count",

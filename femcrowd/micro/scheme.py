@@ -35,11 +35,16 @@ import numpy as np
 from ..step import Step
 from ..timer import Stopwatch
 from .contacts import WallSet, as_segments, merge_collinear
+from .crossings import segment_crossings
 from .fluctuation import FLUCTUATION_TIME, Fluctuation
 from .network import ContactNetwork
-from .projection import project
+from .projection import ProjectionResult, project
 
-__all__ = ["StepInfo", "MicroSimulation", "exit_crossings"]
+__all__ = ["StepInfo", "MicroSimulation"]
+
+#: the projection of a step without discs
+NO_DISCS = ProjectionResult(u=np.zeros((0, 2)), lam=np.zeros(0), iterations=0, factorizations=0, kkt=0.0,
+                            converged=True, method="none")
 
 
 @dataclass
@@ -89,29 +94,9 @@ class StepInfo(Step):
         }
 
 
-def exit_crossings(q0, q1, exits) -> np.ndarray:
-    """Mask of the moves q0 -> q1 (n, 2) whose path crosses an exit segment (E, 2, 2)."""
-    n = len(q0)
-    out = np.zeros(n, dtype=bool)
-    if n == 0 or len(exits) == 0:
-        return out
-    a = exits[:, 0][None]  # (1, E, 2)
-    ab = (exits[:, 1] - exits[:, 0])[None]
-    chunk = max(1, 1_000_000 // len(exits))
-    for s in range(0, n, chunk):
-        p0 = q0[s : s + chunk, None]
-        p1 = q1[s : s + chunk, None]
-        s0 = ab[..., 0] * (p0[..., 1] - a[..., 1]) - ab[..., 1] * (p0[..., 0] - a[..., 0])
-        s1 = ab[..., 0] * (p1[..., 1] - a[..., 1]) - ab[..., 1] * (p1[..., 0] - a[..., 0])
-        cross = (s0 * s1 < 0) | ((s1 == 0) & (s0 != 0))
-        if not cross.any():
-            continue
-        with np.errstate(invalid="ignore", divide="ignore"):
-            t = np.where(cross, s0 / np.where(cross, s0 - s1, 1.0), 0.0)
-        x = p0 + t[..., None] * (p1 - p0)
-        mu = ((x - a) * ab).sum(-1) / (ab * ab).sum(-1)
-        out[s : s + chunk] = (cross & (mu >= 0) & (mu <= 1)).any(axis=1)
-    return out
+def _exit_segments(exits) -> np.ndarray:
+    """The exit segments (E, 2, 2), collinear neighbours merged into one."""
+    return merge_collinear(exits) if len(as_segments(exits)) else as_segments(exits)
 
 
 class MicroSimulation:
@@ -163,7 +148,7 @@ class MicroSimulation:
         self.q, self.r = q, r
         self.ids = np.arange(len(q)) if ids is None else np.asarray(ids).copy()
         self.contacts = ContactNetwork(WallSet(walls), skin)
-        self.exits = merge_collinear(exits) if len(as_segments(exits)) else as_segments(exits)
+        self.exits = _exit_segments(exits)
         self.U = U
         self.tau = float(tau)
         self.t = float(t0)
@@ -184,7 +169,7 @@ class MicroSimulation:
     def set_boundary(self, walls, exits) -> None:
         """New walls and exits (a door that closed or opened); the candidate list is rebuilt at the next step."""
         self.contacts = ContactNetwork(WallSet(walls), self.contacts.skin)
-        self.exits = merge_collinear(exits) if len(as_segments(exits)) else as_segments(exits)
+        self.exits = _exit_segments(exits)
 
     def add(self, q, r) -> None:
         """Discs entering the scene (sources), with new ids; the candidate list is rebuilt at the next step."""
@@ -215,14 +200,6 @@ class MicroSimulation:
             raise FloatingPointError("desired velocity U returned NaN or inf")
         return U
 
-    def restart(self, q, r, ids, u, t: float, nstep: int, evacuated: int, next_id: int) -> None:
-        """Continue from given discs: the candidate list and the multipliers are rebuilt (a resumed run
-        continues bit for bit only with :meth:`state` and :meth:`restore`)."""
-        self.q, self.r, self.ids, self.u = (np.array(a) for a in (q, r, ids, u))
-        self.t, self.nstep, self.evacuated, self._next_id = float(t), int(nstep), int(evacuated), int(next_id)
-        self.moved_to = self.q
-        self.contacts.reset()
-
     def state(self) -> dict:
         """Everything the next steps depend on, as arrays and numbers (a checkpoint): the discs, and what
         carries over from step to step, the contact network (candidate list, multipliers, factorisation
@@ -237,9 +214,10 @@ class MicroSimulation:
 
     def restore(self, state: dict) -> None:
         """Continue from :meth:`state` (of a simulation of the same discs, walls and exits, set up alike)."""
-        self.restart(state["q"], state["r"], state["ids"], state["u"], state["t"], state["steps"],
-                     state["evacuated"], state["next_id"])
-        self._recover = float(state["recover"])
+        self.q, self.r, self.ids, self.u = (np.array(state[k]) for k in ("q", "r", "ids", "u"))
+        self.t, self.nstep, self.evacuated = float(state["t"]), int(state["steps"]), int(state["evacuated"])
+        self._next_id, self._recover = int(state["next_id"]), float(state["recover"])
+        self.moved_to = self.q
         self.contacts.restore({k[9:]: v for k, v in state.items() if k.startswith("contacts.")})
         if self.fluctuation is not None:
             self.fluctuation.restore({k[12:]: v for k, v in state.items() if k.startswith("fluctuation.")})
@@ -255,15 +233,14 @@ class MicroSimulation:
             U = U + self.fluctuation.xi
         if N:
             res, C, rebuilds = self._project(U)
-            u, lam = res.u, self.contacts.lam
-            pressure = C.per_disc_sum(lam)
-            contacts = int(np.count_nonzero(lam > 0))
-            q_new = self.q + tau * u
+            pressure = C.per_disc_sum(self.contacts.lam)
         else:
-            u, pressure, contacts, q_new, res, rebuilds = np.zeros((0, 2)), np.zeros(0), 0, self.q, None, 0
-        gone = exit_crossings(self.q, q_new, self.exits) if N else np.zeros(0, bool)
+            res, rebuilds, pressure = NO_DISCS, 0, np.zeros(0)
+        contacts = int(np.count_nonzero(self.contacts.lam > 0))
+        q_new = self.q + tau * res.u
+        gone = segment_crossings(self.q, q_new, self.exits, ending_counts=True).any(axis=1)
         self.moved_to = self.q = q_new
-        self.u = u
+        self.u = res.u
         self.contacts.moved()
         pressure = self._leave(gone, pressure)
         if self.fluctuation is not None:
@@ -273,30 +250,12 @@ class MicroSimulation:
         self.t += tau
         self.nstep += 1
         return StepInfo(
-            step=self.nstep,
-            time=self.t,
-            dt=tau,
-            count=self.count,
-            evacuated=self.evacuated,
-            evacuated_now=int(gone.sum()),
-            contacts=contacts,
-            max_overlap=max_overlap,
-            overlap_r=overlap_r,
-            gap=0.0 if res is None else res.gap,
-            change=0.0 if res is None else res.change,
-            iterations=0 if res is None else res.iterations,
-            factorizations=0 if res is None else res.factorizations,
-            kkt=0.0 if res is None else res.kkt,
-            converged=True if res is None else res.converged,
-            fallback=False if res is None else res.fallback,
-            rebuilds=rebuilds,
-            candidates=self.contacts.candidates,
-            seconds=clock.seconds,
-            ids=self.ids,
-            q=self.q,
-            r=self.r,
-            u=self.u,
-            pressure=pressure,
+            step=self.nstep, time=self.t, dt=tau, seconds=clock.seconds, iterations=res.iterations,
+            count=self.count, evacuated=self.evacuated, evacuated_now=int(gone.sum()), contacts=contacts,
+            max_overlap=max_overlap, overlap_r=overlap_r, gap=res.gap, change=res.change,
+            factorizations=res.factorizations, kkt=res.kkt, converged=res.converged, fallback=res.fallback,
+            rebuilds=rebuilds, candidates=self.contacts.candidates,
+            ids=self.ids, q=self.q, r=self.r, u=self.u, pressure=pressure,
         )
 
     def _project(self, U):
