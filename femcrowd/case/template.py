@@ -8,7 +8,6 @@ import os
 from pathlib import Path
 
 from ..errors import InputError
-from ..mesh import load_domain
 from .schema import SCHEMA
 
 
@@ -29,19 +28,22 @@ def wall_like(name):
     return name.lower().startswith("wall")
 
 
-def new_case(case_dir, mesh_file) -> Path:
-    """Write CASE_DIR/case.toml for the mesh ``mesh_file``; never overwrites. Returns the file."""
-    case_dir, mesh_file = Path(case_dir), Path(mesh_file)
-    file = case_dir / "case.toml"
+def new_case_file(case_dir) -> Path:
+    """CASE_DIR/case.toml, which must not exist yet: ``femcrowd new`` never overwrites a case."""
+    file = Path(case_dir) / "case.toml"
     if file.exists():
         raise InputError(file, None, None, "already exists: femcrowd new never overwrites a case "
                          "(choose another directory, or edit this file)")
-    domain = load_domain(mesh_file, (), 0, case_file=file)
+    return file
+
+
+def write_new_case(file: Path, mesh_file, domain) -> None:
+    """Write the case file ``file`` for the mesh ``mesh_file`` (its Domain ``domain``)."""
+    case_dir, mesh_file = file.parent, Path(mesh_file)
     text = "".join((f"{line[0]:<30}  # {line[1]}" if isinstance(line, tuple) else line) + "\n"
                    for line in _case_lines(case_dir, mesh_file, domain))
     case_dir.mkdir(parents=True, exist_ok=True)
     file.write_text(text)
-    return file
 
 
 def _case_lines(case_dir, mesh_file, domain) -> list:

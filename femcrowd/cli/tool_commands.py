@@ -125,9 +125,11 @@ def new(case_dir, mesh_file):
       femcrowd new cases/my-hall --mesh meshes/two_exits.msh
       femcrowd run cases/my-hall
     """
-    from ..case.template import new_case
+    from ..case.template import new_case_file, write_new_case
+    from ..mesh import load_domain
 
-    file = new_case(case_dir, mesh_file)
+    file = new_case_file(case_dir)
+    write_new_case(file, mesh_file, load_domain(mesh_file, (), 0, case_file=file))
     click.echo(f"wrote {file}; edit [initial] density, then: femcrowd run {shlex.quote(str(case_dir))}")
 
 

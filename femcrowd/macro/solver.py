@@ -99,13 +99,12 @@ class MacroSolver:
         (negative densities, lost mass).
         """
         schemes = self.transports(state, self.boundary.at(state.t))
-        max_dt = min(s.max_dt for s in schemes)
         lwr = [s for s in schemes if isinstance(s, LWRTransport)]
-        if len(lwr) > 1:  # the bound of the total density takes every population's flux into a cell
-            max_dt = min(max_dt, joint_max_dt(self.domain, lwr))
+        # the bound of the total density takes every population's flux into a cell
+        joint = joint_max_dt(self.domain, lwr) if len(lwr) > 1 else np.inf
         if self.fixed_dt is None:
-            return self.cfl * max_dt
-        return min(self.fixed_dt, min(s.max_cfl * s.max_dt for s in schemes), max_dt)
+            return self.cfl * min(min(s.max_dt for s in schemes), joint)
+        return min(self.fixed_dt, min(s.max_cfl * s.max_dt for s in schemes), joint)
 
     def step(self, state: MacroState, until: float = np.inf) -> MacroStep:
         """Advance the state by one step, not beyond time ``until`` (a shorter step lands on it: the controller

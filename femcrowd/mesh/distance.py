@@ -40,8 +40,6 @@ import scipy.sparse as sp
 
 from .triangles import doubled_areas
 
-__all__ = ["exit_distance"]
-
 #: The iteration stops changing a node when it would decrease by less than this fraction of
 #: the mean edge length (1e-6: the result agrees to 3 digits with a 1e-9 tolerance, at half
 #: the cost).
@@ -58,33 +56,33 @@ def exit_distance(points, triangles, exit_edges) -> np.ndarray:
     Returns (N,) float; np.inf at nodes with no path to any exit (regions cut off from every exit)."""
     p = np.asarray(points, dtype=float)
     t = np.asarray(triangles, dtype=np.int64)
-    ex = np.asarray(exit_edges, dtype=np.int64)
+    exits = np.asarray(exit_edges, dtype=np.int64)
     if t.size == 0:
         t = t.reshape(0, 3)
-    if ex.size == 0:
-        ex = ex.reshape(0, 2)
+    if exits.size == 0:
+        exits = exits.reshape(0, 2)
     if p.ndim != 2 or p.shape[1] != 2:
         raise ValueError(f"points must have shape (N, 2), got {p.shape}")
     if t.ndim != 2 or t.shape[1] != 3:
         raise ValueError(f"triangles must have shape (M, 3), got {t.shape}")
-    if ex.ndim != 2 or ex.shape[1] != 2:
-        raise ValueError(f"exit_edges must have shape (E, 2), got {ex.shape}")
+    if exits.ndim != 2 or exits.shape[1] != 2:
+        raise ValueError(f"exit_edges must have shape (E, 2), got {exits.shape}")
     n = len(p)
-    for name, a in (("triangles", t), ("exit_edges", ex)):
-        if a.size and (a.min() < 0 or a.max() >= n):
+    for name, nodes in (("triangles", t), ("exit_edges", exits)):
+        if nodes.size and (nodes.min() < 0 or nodes.max() >= n):
             raise ValueError(f"{name} refer to nodes outside 0..{n - 1}")
     if not np.isfinite(p).all():
         raise ValueError("points contain NaN or inf")
 
     d = np.full(n, np.inf)
-    if len(ex) == 0:
+    if len(exits) == 0:
         return d
-    exn = np.unique(ex)
-    d[exn] = 0.0
+    exit_nodes = np.unique(exits)
+    d[exit_nodes] = 0.0
     if len(t) == 0:
         return d
 
-    d = _seed_values(p, t, d, exn, ex[ex[:, 0] != ex[:, 1]])
+    d = _seed_values(p, t, d, exit_nodes, exits[exits[:, 0] != exits[:, 1]])
     corners = _Corners(p, t)
     return _fim(corners, d)
 
@@ -99,10 +97,10 @@ class _Corners:
 
     def __init__(self, p, t):
         n, m = len(p), len(t)
-        it = np.int32 if max(n, 3 * m) < 2**31 - 1 else np.int64
-        self.C = t.ravel().astype(it)
-        self.A = np.roll(t, -1, axis=1).ravel().astype(it)
-        self.B = np.roll(t, -2, axis=1).ravel().astype(it)
+        index_type = np.int32 if max(n, 3 * m) < 2**31 - 1 else np.int64
+        self.C = t.ravel().astype(index_type)
+        self.A = np.roll(t, -1, axis=1).ravel().astype(index_type)
+        self.B = np.roll(t, -2, axis=1).ravel().astype(index_type)
         x0, x1, x2 = p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
         # edge[:, k] = length of the edge opposite vertex k
         edge = np.stack([np.hypot(*(x2 - x1).T), np.hypot(*(x0 - x2).T), np.hypot(*(x1 - x0).T)], axis=1)
@@ -116,10 +114,10 @@ class _Corners:
         self.wperp = np.repeat(area2, 3) * self.iL
         self.ca, self.cb = ca, cb
         self.mean_edge = float(edge.mean()) if m else 0.0
-        ids = np.arange(3 * m, dtype=it)
+        corners = np.arange(3 * m, dtype=index_type)
         # Corners grouped by their node C (a counting sort, in C, through scipy's COO -> CSR).
-        g = sp.coo_matrix((ids, (self.C, ids)), shape=(n, 3 * m)).tocsr()
-        self.ptr, self.own = g.indptr.astype(np.int64), g.indices.astype(it)
+        grouped = sp.coo_matrix((corners, (self.C, corners)), shape=(n, 3 * m)).tocsr()
+        self.ptr, self.own = grouped.indptr.astype(np.int64), grouped.indices.astype(index_type)
 
     def owned(self, nodes):
         """Corners whose node C is in nodes (the ones that update these nodes)."""
@@ -131,27 +129,27 @@ class _Corners:
         base = c - c % 3
         return np.concatenate([base + (c + 1) % 3, base + (c + 2) % 3])
 
-    def update(self, d, cs):
-        """Value that corners cs give to their node C from d at A and B (the P1 Hopf-Lax formula)."""
-        dA, dB = d[self.A[cs]], d[self.B[cs]]
-        best = np.minimum(dA + self.ca[cs], dB + self.cb[cs])  # through an end point
+    def update(self, d, corners):
+        """Value that the corners give to their node C from d at A and B (the P1 Hopf-Lax formula)."""
+        dA, dB = d[self.A[corners]], d[self.B[corners]]
+        best = np.minimum(dA + self.ca[corners], dB + self.cb[corners])  # through an end point
         with np.errstate(invalid="ignore", divide="ignore"):
-            iL = self.iL[cs]
+            iL = self.iL[corners]
             du = dB - dA
             c = du * iL  # cosine of the angle between AB and the incoming ray
             ok = np.abs(c) < 1  # False for inf - inf too
-            sq = np.sqrt(np.where(ok, 1.0 - c * c, 1.0))
-            wp = self.wperp[cs]
-            s = (self.wpar[cs] - c * wp / sq) * iL  # where the ray crosses AB, in [0, 1]
+            sine = np.sqrt(np.where(ok, 1.0 - c * c, 1.0))
+            wperp = self.wperp[corners]
+            s = (self.wpar[corners] - c * wperp / sine) * iL  # where the ray crosses AB, in [0, 1]
             ok &= (s > 0) & (s < 1)
-            inner = dA + s * du + wp / sq
-        return self.C[cs], np.where(ok, np.minimum(best, inner), best)
+            inner = dA + s * du + wperp / sine
+        return self.C[corners], np.where(ok, np.minimum(best, inner), best)
 
 
-def _ranges(ptr, ind, nodes):
-    cnt = ptr[nodes + 1] - ptr[nodes]
-    start = np.repeat(ptr[nodes] - np.cumsum(cnt) + cnt, cnt)
-    return ind[start + np.arange(len(start))]
+def _ranges(ptr, indices, nodes):
+    counts = ptr[nodes + 1] - ptr[nodes]
+    start = np.repeat(ptr[nodes] - np.cumsum(counts) + counts, counts)
+    return indices[start + np.arange(len(start))]
 
 
 def _fim(corners, d):
@@ -172,33 +170,33 @@ def _fim(corners, d):
     tol = REL_TOL * corners.mean_edge
     band = BAND * corners.mean_edge
     mark = np.zeros(n, dtype=bool)
-    x = np.empty(0, dtype=np.int64)  # active nodes
+    active = np.empty(0, dtype=np.int64)  # the nodes to relax
     done = np.flatnonzero(np.isfinite(d))  # the seeds act as converged nodes
-    while len(done) or len(x):
+    while len(done) or len(active):
         if len(done):
-            tgt, val = corners.update(d, corners.readers(done))
-            better = val < d[tgt] - tol
-            tgt, val = tgt[better], val[better]
-            np.minimum.at(d, tgt, val)
-            mark[tgt] = True
-            mark[x] = False
+            target, value = corners.update(d, corners.readers(done))
+            better = value < d[target] - tol
+            target, value = target[better], value[better]
+            np.minimum.at(d, target, value)
+            mark[target] = True
+            mark[active] = False
             new = np.flatnonzero(mark)
             mark[new] = False
-            x = np.concatenate([x, new])
-        if not len(x):
+            active = np.concatenate([active, new])
+        if not len(active):
             break
-        dx = d[x]
-        near = dx <= dx.min() + band
-        y, waiting, old = x[near], x[~near], dx[near]
-        tgt, val = corners.update(d, corners.owned(y))
-        np.minimum.at(d, tgt, val)
-        conv = d[y] >= old - tol
-        done = y[conv]
-        x = np.concatenate([y[~conv], waiting])
+        d_active = d[active]
+        near = d_active <= d_active.min() + band
+        relaxed, waiting, before = active[near], active[~near], d_active[near]
+        target, value = corners.update(d, corners.owned(relaxed))
+        np.minimum.at(d, target, value)
+        converged = d[relaxed] >= before - tol
+        done = relaxed[converged]
+        active = np.concatenate([relaxed[~converged], waiting])
     return d
 
 
-def _seed_values(p, t, d, exn, ex):
+def _seed_values(p, t, d, exit_nodes, exits):
     """Straight-line distance to the exit segments at the nodes of the triangles around each exit
     node (d is 0 at the exit nodes already). Returns the updated d (upper bounds; the iteration
     may lower them).
@@ -210,65 +208,65 @@ def _seed_values(p, t, d, exn, ex):
     """
     n = len(p)
     is_exit = np.zeros(n, dtype=bool)
-    is_exit[exn] = True
-    tt = t[is_exit[t].any(axis=1)]
-    if len(tt) == 0:
+    is_exit[exit_nodes] = True
+    around = t[is_exit[t].any(axis=1)]
+    if len(around) == 0:
         return d
 
     for k in range(3):  # point candidates
-        s = tt[:, k][is_exit[tt[:, k]]]
+        s = around[:, k][is_exit[around[:, k]]]
         for j in (1, 2):
-            w = tt[:, (k + j) % 3][is_exit[tt[:, k]]]
+            w = around[:, (k + j) % 3][is_exit[around[:, k]]]
             np.minimum.at(d, w, np.hypot(*(p[w] - p[s]).T))
-    if len(ex) == 0:
+    if len(exits) == 0:
         return d
 
-    a, b = ex[:, 0], ex[:, 1]
-    side_pos, side_neg = _edge_sides(p, tt, ex)
-    table = _edges_at_nodes(n, ex)
+    a, b = exits[:, 0], exits[:, 1]
+    side_pos, side_neg = _edge_sides(p, around, exits)
+    table = _edges_at_nodes(n, exits)
 
     for k in range(3):  # segment candidates
-        rows_k = np.flatnonzero(is_exit[tt[:, k]])
+        rows_k = np.flatnonzero(is_exit[around[:, k]])
         for j in range(table.shape[1]):
-            e = table[tt[rows_k, k], j]
+            e = table[around[rows_k, k], j]
             rows, e = rows_k[e >= 0], e[e >= 0]
             A, B = p[a[e]], p[b[e]]
             for i in range(3):
-                w = tt[rows, i]
-                cr = _cross(B - A, p[w] - A)
-                good = (cr == 0) | ((cr > 0) & side_pos[e]) | ((cr < 0) & side_neg[e])
+                w = around[rows, i]
+                side = _cross(B - A, p[w] - A)
+                good = (side == 0) | ((side > 0) & side_pos[e]) | ((side < 0) & side_neg[e])
                 np.minimum.at(d, w[good], _seg_dist(p[w[good]], A[good], B[good]))
     return d
 
 
-def _edge_sides(p, tt, ex):
-    """The sides of the line of each exit edge (a, b) on which a triangle of tt holding that edge lies: masks
+def _edge_sides(p, around, exits):
+    """The sides of the line of each exit edge (a, b) on which a triangle of `around` holding that edge lies: masks
     (positive cross product, negative) over the edges."""
     n = len(p)
-    a, b = ex[:, 0], ex[:, 1]
-    ekey = np.minimum(a, b) * n + np.maximum(a, b)
-    eorder = np.argsort(ekey)
-    eks = ekey[eorder]
-    side_pos = np.zeros(len(ex), dtype=bool)
-    side_neg = np.zeros(len(ex), dtype=bool)
+    a, b = exits[:, 0], exits[:, 1]
+    edge_key = np.minimum(a, b) * n + np.maximum(a, b)
+    edge_order = np.argsort(edge_key)
+    sorted_keys = edge_key[edge_order]
+    side_pos = np.zeros(len(exits), dtype=bool)
+    side_neg = np.zeros(len(exits), dtype=bool)
     for k in range(3):
-        u, v = tt[:, k], tt[:, (k + 1) % 3]
+        u, v = around[:, k], around[:, (k + 1) % 3]
         key = np.minimum(u, v) * n + np.maximum(u, v)
-        pos = np.minimum(np.searchsorted(eks, key), len(eks) - 1)
-        hit = eks[pos] == key
-        e = eorder[pos[hit]]
-        cr = _cross(p[b[e]] - p[a[e]], p[tt[hit, (k + 2) % 3]] - p[a[e]])
-        side_pos[e[cr > 0]] = True
-        side_neg[e[cr < 0]] = True
+        pos = np.minimum(np.searchsorted(sorted_keys, key), len(sorted_keys) - 1)
+        hit = sorted_keys[pos] == key
+        e = edge_order[pos[hit]]
+        side = _cross(p[b[e]] - p[a[e]], p[around[hit, (k + 2) % 3]] - p[a[e]])
+        side_pos[e[side > 0]] = True
+        side_neg[e[side < 0]] = True
     return side_pos, side_neg
 
 
-def _edges_at_nodes(n, ex):
+def _edges_at_nodes(n, exits):
     """The exit edges at each of the n nodes, as a padded table (n, largest degree), -1 for none."""
-    inc_node = np.r_[ex[:, 0], ex[:, 1]]
-    inc_edge = np.r_[np.arange(len(ex)), np.arange(len(ex))]
-    o = np.argsort(inc_node, kind="stable")
-    inc_node, inc_edge = inc_node[o], inc_edge[o]
+    inc_node = np.r_[exits[:, 0], exits[:, 1]]
+    inc_edge = np.r_[np.arange(len(exits)), np.arange(len(exits))]
+    order = np.argsort(inc_node, kind="stable")
+    inc_node, inc_edge = inc_node[order], inc_edge[order]
     firsts = np.flatnonzero(np.r_[True, inc_node[1:] != inc_node[:-1]])
     slot = np.arange(len(inc_node)) - np.repeat(firsts, np.diff(np.r_[firsts, len(inc_node)]))
     table = np.full((n, slot.max() + 1), -1, dtype=np.int64)

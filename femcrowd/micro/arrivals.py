@@ -28,11 +28,11 @@ class Arrivals:
     def _slots(self, domain, facets, walls) -> np.ndarray:
         """Disc centres 1.01 r behind the facets, at least 2 r apart, clear of every wall (set-up only)."""
         r, out = self.r, []
-        for f in facets:
-            a, b = domain.points[domain.mesh.facets[:, f]]
+        for facet in facets:
+            a, b = domain.points[domain.mesh.facets[:, facet]]
             n = int(np.ceil(4 * np.linalg.norm(b - a) / r))
-            s = (np.arange(n) + 0.5) / n
-            out.append(a + s[:, None] * (b - a) - 1.01 * r * domain.normal[f])
+            along = (np.arange(n) + 0.5) / n
+            out.append(a + along[:, None] * (b - a) - 1.01 * r * domain.normal[facet])
         candidates = np.concatenate(out)
         if walls.n:
             hit, _, _, dist = walls.near(candidates, r)
@@ -40,9 +40,9 @@ class Arrivals:
             clear[hit[dist < r]] = False
             candidates = candidates[clear]
         kept = []   # greedy thinning along the entrance: a handful of slots, once
-        for c in candidates[np.lexsort(candidates.T[::-1])]:
-            if not kept or np.min(np.linalg.norm(np.array(kept) - c, axis=1)) >= 2 * r:
-                kept.append(c)
+        for candidate in candidates[np.lexsort(candidates.T[::-1])]:
+            if not kept or np.min(np.linalg.norm(np.array(kept) - candidate, axis=1)) >= 2 * r:
+                kept.append(candidate)
         return np.array(kept).reshape(-1, 2)
 
     def __call__(self, t: float, dt: float, q: np.ndarray, r: np.ndarray):
@@ -61,10 +61,10 @@ class Arrivals:
                 continue
             free = np.ones(len(slots), bool)
             if tree is not None:
-                dd, jj = tree.query(slots, k=min(8, len(q)), distance_upper_bound=reach)
-                dd, jj = dd.reshape(len(slots), -1), jj.reshape(len(slots), -1)
-                valid = jj < len(q)
-                free = ~(valid & (dd < r[np.minimum(jj, len(q) - 1)] + self.r)).any(axis=1)
+                dist, nearest = tree.query(slots, k=min(8, len(q)), distance_upper_bound=reach)
+                dist, nearest = dist.reshape(len(slots), -1), nearest.reshape(len(slots), -1)
+                valid = nearest < len(q)
+                free = ~(valid & (dist < r[np.minimum(nearest, len(q) - 1)] + self.r)).any(axis=1)
             chosen = self.rng.permutation(np.flatnonzero(free))[:wanted[k]]
             new_q.append(slots[chosen])
             lo, hi = self.radius

@@ -26,64 +26,49 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-__all__ = [
-    "as_segments",
-    "merge_collinear",
-    "point_segment_distance",
-    "WallSet",
-    "Constraints",
-    "CandidateList",
-    "pair_gaps",
-]
 
-
-# --------------------------------------------------------------------------
-# segments
-# --------------------------------------------------------------------------
-
-
-def as_segments(segs) -> np.ndarray:
-    """Return ``segs`` as a float (S, 2, 2) array (an empty (0, 2, 2) if None)."""
-    if segs is None:
+def as_segments(segments) -> np.ndarray:
+    """Return ``segments`` as a float (S, 2, 2) array (an empty (0, 2, 2) if None)."""
+    if segments is None:
         return np.zeros((0, 2, 2))
-    a = np.asarray(segs, dtype=float)
-    if a.size == 0:
+    array = np.asarray(segments, dtype=float)
+    if array.size == 0:
         return np.zeros((0, 2, 2))
-    if a.ndim != 3 or a.shape[1:] != (2, 2):
-        raise ValueError(f"segments must have shape (S, 2, 2), got {a.shape}")
-    if not np.all(np.isfinite(a)):
+    if array.ndim != 3 or array.shape[1:] != (2, 2):
+        raise ValueError(f"segments must have shape (S, 2, 2), got {array.shape}")
+    if not np.all(np.isfinite(array)):
         raise ValueError("segments contain NaN or inf")
-    keep = np.linalg.norm(a[:, 1] - a[:, 0], axis=1) > 0
-    return np.ascontiguousarray(a[keep])
+    keep = np.linalg.norm(array[:, 1] - array[:, 0], axis=1) > 0
+    return np.ascontiguousarray(array[keep])
 
 
-def merge_collinear(segs, rtol: float = 1e-9) -> np.ndarray:
+def merge_collinear(segments, rtol: float = 1e-9) -> np.ndarray:
     """Merge chains of collinear segments that share end points.
 
     Mesh boundary edges come as many short collinear pieces; a disc resting on
     a straight wall would otherwise see one (duplicate) constraint per piece.
     Runs once at set-up (a loop over the segments is fine there).
     """
-    segs = as_segments(segs)
-    S = len(segs)
-    if S < 2:
-        return segs
-    pts = segs.reshape(-1, 2)
-    scale = max(np.ptp(pts[:, 0]), np.ptp(pts[:, 1]), 1e-300)
-    key = np.round(pts / (scale * rtol * 10)).astype(np.int64)
-    _, vid = np.unique(key, axis=0, return_inverse=True)
-    vid = vid.reshape(S, 2)
-    nv = vid.max() + 1
-    deg = np.bincount(vid.ravel(), minlength=nv)
-    d = segs[:, 1] - segs[:, 0]
-    d /= np.linalg.norm(d, axis=1)[:, None]
+    segments = as_segments(segments)
+    count = len(segments)
+    if count < 2:
+        return segments
+    points = segments.reshape(-1, 2)
+    scale = max(np.ptp(points[:, 0]), np.ptp(points[:, 1]), 1e-300)
+    key = np.round(points / (scale * rtol * 10)).astype(np.int64)
+    _, vertex = np.unique(key, axis=0, return_inverse=True)
+    vertex = vertex.reshape(count, 2)
+    nvertices = vertex.max() + 1
+    degree = np.bincount(vertex.ravel(), minlength=nvertices)
+    direction = segments[:, 1] - segments[:, 0]
+    direction /= np.linalg.norm(direction, axis=1)[:, None]
     # incidence: for each vertex of degree 2 its two segments
-    inc = [[] for _ in range(nv)]
-    for s in range(S):
-        inc[vid[s, 0]].append(s)
-        inc[vid[s, 1]].append(s)
+    incident = [[] for _ in range(nvertices)]
+    for s in range(count):
+        incident[vertex[s, 0]].append(s)
+        incident[vertex[s, 1]].append(s)
     # union-find over segments joined at collinear degree-2 vertices
-    parent = np.arange(S)
+    parent = np.arange(count)
 
     def find(x):
         while parent[x] != x:
@@ -91,22 +76,22 @@ def merge_collinear(segs, rtol: float = 1e-9) -> np.ndarray:
             x = parent[x]
         return x
 
-    for v in np.flatnonzero(deg == 2):
-        s1, s2 = inc[v]
-        if abs(d[s1, 0] * d[s2, 1] - d[s1, 1] * d[s2, 0]) < 1e3 * rtol:
-            a, b = find(s1), find(s2)
-            if a != b:
-                parent[b] = a
-    roots = np.array([find(s) for s in range(S)])
+    for v in np.flatnonzero(degree == 2):
+        s1, s2 = incident[v]
+        if abs(direction[s1, 0] * direction[s2, 1] - direction[s1, 1] * direction[s2, 0]) < 1e3 * rtol:
+            first_root, second_root = find(s1), find(s2)
+            if first_root != second_root:
+                parent[second_root] = first_root
+    roots = np.array([find(s) for s in range(count)])
     out = []
     for root in np.unique(roots):
         members = np.flatnonzero(roots == root)
         if len(members) == 1:
-            out.append(segs[members[0]])
+            out.append(segments[members[0]])
             continue
-        p = segs[members].reshape(-1, 2)
-        t = (p - p[0]) @ d[root]
-        out.append(np.array([p[np.argmin(t)], p[np.argmax(t)]]))
+        ends = segments[members].reshape(-1, 2)
+        along = (ends - ends[0]) @ direction[root]
+        out.append(np.array([ends[np.argmin(along)], ends[np.argmax(along)]]))
     return np.ascontiguousarray(np.array(out, dtype=float).reshape(-1, 2, 2))
 
 
@@ -130,27 +115,27 @@ class WallSet:
     """
 
     def __init__(self, segments, merge: bool = True, spacing: float | None = None):
-        segs = merge_collinear(segments) if merge else as_segments(segments)
-        self.segments = segs
-        self.a = np.ascontiguousarray(segs[:, 0])
-        self.b = np.ascontiguousarray(segs[:, 1])
-        self.n = len(segs)
+        segments = merge_collinear(segments) if merge else as_segments(segments)
+        self.segments = segments
+        self.a = np.ascontiguousarray(segments[:, 0])
+        self.b = np.ascontiguousarray(segments[:, 1])
+        self.n = len(segments)
         self._tree = None
         self.spacing = spacing
         if self.n and spacing is not None:
             self._build(spacing)
 
     def _build(self, h):
-        L = np.linalg.norm(self.b - self.a, axis=1)
-        k = np.maximum(np.ceil(L / h).astype(int), 1)  # pieces per segment
-        seg = np.repeat(np.arange(self.n), k + 1)
-        start = np.repeat(np.cumsum(k + 1) - (k + 1), k + 1)
-        t = (np.arange(len(seg)) - start) / np.repeat(k, k + 1)
-        pts = self.a[seg] + t[:, None] * (self.b - self.a)[seg]
-        self._tree = cKDTree(pts)
-        self._sample_seg = seg
+        length = np.linalg.norm(self.b - self.a, axis=1)
+        pieces = np.maximum(np.ceil(length / h).astype(int), 1)  # per segment
+        segment = np.repeat(np.arange(self.n), pieces + 1)
+        start = np.repeat(np.cumsum(pieces + 1) - (pieces + 1), pieces + 1)
+        t = (np.arange(len(segment)) - start) / np.repeat(pieces, pieces + 1)
+        points = self.a[segment] + t[:, None] * (self.b - self.a)[segment]
+        self._tree = cKDTree(points)
+        self._sample_seg = segment
         self.spacing = float(h)
-        self._halfgap = 0.5 * float(np.max(L / k))
+        self._halfgap = 0.5 * float(np.max(length / pieces))
 
     def near(self, q, radius: float, tree: cKDTree | None = None):
         """(disc, segment) index pairs with ``dist(q_disc, segment) <= radius``.
@@ -186,30 +171,25 @@ class WallSet:
             return out
         # chunked brute force over segments for set-up use (sampling, checks)
         chunk = max(1, 2_000_000 // max(self.n, 1))
-        for s in range(0, len(q), chunk):
-            x = q[s : s + chunk, None, :]
+        for start in range(0, len(q), chunk):
+            x = q[start : start + chunk, None, :]
             ab = (self.b - self.a)[None]
             t = np.clip(((x - self.a[None]) * ab).sum(-1) / (ab * ab).sum(-1), 0, 1)
-            dd = x - (self.a[None] + t[..., None] * ab)
-            out[s : s + chunk] = np.sqrt((dd * dd).sum(-1).min(axis=1))
+            offset = x - (self.a[None] + t[..., None] * ab)
+            out[start : start + chunk] = np.sqrt((offset * offset).sum(-1).min(axis=1))
         return out
-
-
-# --------------------------------------------------------------------------
-# constraint rows at a configuration
-# --------------------------------------------------------------------------
 
 
 def pair_gaps(q, r, i, j):
     """Gaps D_ij and unit vectors e_ij = (q_j - q_i)/|q_j - q_i| for pairs (i, j)."""
     dq = q[j] - q[i]
-    L = np.sqrt(np.einsum("ij,ij->i", dq, dq))
+    length = np.sqrt(np.einsum("ij,ij->i", dq, dq))
     with np.errstate(invalid="ignore", divide="ignore"):
-        e = dq / L[:, None]
-    bad = ~(L > 0)
+        e = dq / length[:, None]
+    bad = ~(length > 0)
     if bad.any():  # coincident centres: any direction is a valid sub-gradient
         e[bad] = (1.0, 0.0)
-    return L - r[i] - r[j], e
+    return length - r[i] - r[j], e
 
 
 class Constraints:
@@ -217,6 +197,8 @@ class Constraints:
 
     Rows ``0..mp-1`` are disc pairs (``c . (v_i - v_j)``), rows ``mp..m-1``
     are wall contacts (``c . v_i``). ``D`` are the gaps at the configuration.
+    ``pi``, ``pj``: the discs i < j of each pair row, ``cp``: their c (= e_ij);
+    ``wi``, ``ws``: the disc and wall segment of each wall row, ``cw``: their c (= -n).
     """
 
     def __init__(self, N, pi, pj, cp, wi, ws, cw, D):
@@ -236,11 +218,10 @@ class Constraints:
         )
         self._B = self._BT = None
 
-    # B v and B^T lambda ----------------------------------------------------
-    # Both go through a cached scipy CSR matrix: its compiled mat-vec is 5-10x
-    # faster than gathering/scattering with numpy fancy indexing, and the
-    # solvers call them hundreds of times per projection.
     def _csr(self):
+        """B and B^T as cached scipy CSR matrices: B v and B^T lambda go through them (their compiled mat-vec
+        is 5-10x faster than gathering/scattering with numpy fancy indexing, and the solvers call them
+        hundreds of times per projection)."""
         if self._B is None:
             self._B = self.to_csr()
             self._BT = self._B.T.tocsr()
@@ -256,23 +237,24 @@ class Constraints:
 
     def per_disc_sum(self, x):
         """Sum of a per-row quantity over the rows touching each disc (pressure)."""
-        w = np.concatenate([x[: self.mp], x[: self.mp], x[self.mp :]])
-        return np.bincount(np.concatenate([self.pi, self.pj, self.wi]), weights=w, minlength=self.N)
+        weights = np.concatenate([x[: self.mp], x[: self.mp], x[self.mp :]])
+        return np.bincount(np.concatenate([self.pi, self.pj, self.wi]), weights=weights, minlength=self.N)
 
     def norm2_bound(self):
         """Upper bound of ||B||^2 (Gershgorin on |B||B|^T), for Uzawa's step."""
         if self.m == 0:
             return 0.0
-        ap, aw = np.abs(self.cp), np.abs(self.cw)
+        abs_pair, abs_wall = np.abs(self.cp), np.abs(self.cw)
         colsum = np.bincount(
             self._cols,
-            weights=np.concatenate([ap[:, 0], ap[:, 1], ap[:, 0], ap[:, 1], aw[:, 0], aw[:, 1]]),
+            weights=np.concatenate([abs_pair[:, 0], abs_pair[:, 1], abs_pair[:, 0], abs_pair[:, 1],
+                                    abs_wall[:, 0], abs_wall[:, 1]]),
             minlength=2 * self.N,
         ).reshape(self.N, 2)
-        rs = np.concatenate(
-            [(ap * (colsum[self.pi] + colsum[self.pj])).sum(1), (aw * colsum[self.wi]).sum(1)]
+        row_sums = np.concatenate(
+            [(abs_pair * (colsum[self.pi] + colsum[self.pj])).sum(1), (abs_wall * colsum[self.wi]).sum(1)]
         )
-        return float(rs.max())
+        return float(row_sums.max())
 
     def to_csr(self):
         """B as a scipy CSR matrix (m, 2N), for external solvers and checks."""
@@ -293,26 +275,24 @@ class Constraints:
         rows = np.asarray(rows)
         if rows.dtype == bool:
             rows = np.flatnonzero(rows)
-        p = rows[rows < self.mp]
-        w = rows[rows >= self.mp] - self.mp
-        return Constraints(self.N, self.pi[p], self.pj[p], self.cp[p], self.wi[w], self.ws[w],
-                           self.cw[w], self.D[np.concatenate([p, self.mp + w])])
+        pair_rows = rows[rows < self.mp]
+        wall_rows = rows[rows >= self.mp] - self.mp
+        return Constraints(self.N, self.pi[pair_rows], self.pj[pair_rows], self.cp[pair_rows], self.wi[wall_rows],
+                           self.ws[wall_rows], self.cw[wall_rows],
+                           self.D[np.concatenate([pair_rows, self.mp + wall_rows])])
 
 
-def _wall_gap(q, r, i, p):
-    dx = q[i] - p
-    L = np.sqrt(np.einsum("ij,ij->i", dx, dx))
+def _wall_gap(q, r, i, closest):
+    """Gaps dist(q_i, segment) - r_i of the discs i whose closest points on their segments are `closest`, and the
+    unit vectors n from those points to q_i."""
+    offset = q[i] - closest
+    length = np.sqrt(np.einsum("ij,ij->i", offset, offset))
     with np.errstate(invalid="ignore", divide="ignore"):
-        n = dx / L[:, None]
-    bad = ~(L > 0)
+        n = offset / length[:, None]
+    bad = ~(length > 0)
     if bad.any():
         n[bad] = (1.0, 0.0)
-    return L - r[i], n
-
-
-# --------------------------------------------------------------------------
-# Verlet candidate list
-# --------------------------------------------------------------------------
+    return length - r[i], n
 
 
 class CandidateList:
@@ -323,7 +303,8 @@ class CandidateList:
     >= D_ij(build) - s_i - s_j > 0 (triangle inequality), so the list is exact
     (it contains every pair that can touch or whose linearised constraint can
     bind) while the two largest s_i sum to less than ``skin``
-    (:meth:`travel_ok`; a wall pair needs s_i < skin).
+    (:meth:`travel_ok`; a wall pair needs s_i < skin). The rows are those of
+    :class:`Constraints`: pairs (``pi``, ``pj``), then disc-wall rows (``wi``, ``ws``).
     """
 
     def __init__(self, q, r, walls: WallSet | None, skin: float):
@@ -338,26 +319,27 @@ class CandidateList:
             return
         tree = cKDTree(q)
         rmax = float(r.max())
-        P = tree.query_pairs(2 * rmax + self.skin, output_type="ndarray")
-        if len(P):
-            D, _ = pair_gaps(q, r, P[:, 0], P[:, 1])
-            P = P[D <= self.skin]
-        self.pi = np.ascontiguousarray(P[:, 0]).astype(np.intp)
-        self.pj = np.ascontiguousarray(P[:, 1]).astype(np.intp)
+        pairs = tree.query_pairs(2 * rmax + self.skin, output_type="ndarray")
+        if len(pairs):
+            D, _ = pair_gaps(q, r, pairs[:, 0], pairs[:, 1])
+            pairs = pairs[D <= self.skin]
+        self.pi = np.ascontiguousarray(pairs[:, 0]).astype(np.intp)
+        self.pj = np.ascontiguousarray(pairs[:, 1]).astype(np.intp)
         if walls is not None and walls.n:
-            wi, ws, _, dist = walls.near(q, rmax + self.skin, tree=tree)
-            keep = dist - r[wi] <= self.skin
-            self.wi, self.ws = wi[keep], ws[keep]
+            wall_disc, wall_segment, _, dist = walls.near(q, rmax + self.skin, tree=tree)
+            keep = dist - r[wall_disc] <= self.skin
+            self.wi, self.ws = wall_disc[keep], wall_segment[keep]
         else:
             self.wi = self.ws = np.zeros(0, np.intp)
 
     @classmethod
     def from_arrays(cls, q_ref, skin, nwalls, pi, pj, wi, ws) -> "CandidateList":
         """A list as it was built (a checkpoint's: :meth:`arrays`), with its rows in the same order."""
-        cl = cls.__new__(cls)
-        cl.q_ref, cl.skin, cl.nwalls = np.array(q_ref, float).reshape(-1, 2), float(skin), int(nwalls)
-        cl.pi, cl.pj, cl.wi, cl.ws = (np.array(a, np.intp) for a in (pi, pj, wi, ws))
-        return cl
+        built = cls.__new__(cls)
+        built.q_ref = np.array(q_ref, float).reshape(-1, 2)
+        built.skin, built.nwalls = float(skin), int(nwalls)
+        built.pi, built.pj, built.wi, built.ws = (np.array(rows, np.intp) for rows in (pi, pj, wi, ws))
+        return built
 
     def arrays(self) -> dict:
         """The list as arrays, the arguments of :meth:`from_arrays`."""
@@ -370,37 +352,37 @@ class CandidateList:
 
     def keys(self, N):
         """Integer keys identifying rows (to carry multipliers across rebuilds)."""
-        W = max(self.nwalls, 1)
-        return np.concatenate([self.pi * N + self.pj, -1 - (self.wi * W + self.ws)])
+        stride = max(self.nwalls, 1)
+        return np.concatenate([self.pi * N + self.pj, -1 - (self.wi * stride + self.ws)])
 
     def travel_ok(self, q, step=None) -> bool:
         """True if the list covers a move from q by ``step`` (per-disc lengths)."""
         dq = q - self.q_ref
-        p = np.sqrt(np.einsum("ij,ij->i", dq, dq))
+        travel = np.sqrt(np.einsum("ij,ij->i", dq, dq))
         if step is not None:
-            p += step
-        if len(p) < 2:
-            return len(p) == 0 or p[0] < self.skin  # only walls
-        two = np.partition(p, len(p) - 2)[-2:]
-        return bool(two.sum() < self.skin)
+            travel += step
+        if len(travel) < 2:
+            return len(travel) == 0 or travel[0] < self.skin  # only walls
+        largest = np.partition(travel, len(travel) - 2)[-2:]
+        return bool(largest.sum() < self.skin)
 
     def constraints(self, q, r, walls: WallSet | None) -> Constraints:
         """Gaps and unit vectors of all listed rows at configuration q."""
         N = len(q)
-        Dp, e = pair_gaps(q, r, self.pi, self.pj)
+        D_pairs, e = pair_gaps(q, r, self.pi, self.pj)
         if len(self.wi):
-            p, _ = point_segment_distance(q[self.wi], walls.a[self.ws], walls.b[self.ws])
-            Dw, n = _wall_gap(q, r, self.wi, p)
+            closest, _ = point_segment_distance(q[self.wi], walls.a[self.ws], walls.b[self.ws])
+            D_walls, n = _wall_gap(q, r, self.wi, closest)
         else:
-            Dw, n = np.zeros(0), np.zeros((0, 2))
-        return Constraints(N, self.pi, self.pj, e, self.wi, self.ws, -n, np.concatenate([Dp, Dw]))
+            D_walls, n = np.zeros(0), np.zeros((0, 2))
+        return Constraints(N, self.pi, self.pj, e, self.wi, self.ws, -n, np.concatenate([D_pairs, D_walls]))
 
     def remove(self, keep_mask):
         """Drop discs (keep_mask False) and renumber the rows; returns kept row mask."""
-        newidx = np.cumsum(keep_mask) - 1
-        kp = keep_mask[self.pi] & keep_mask[self.pj]
-        kw = keep_mask[self.wi]
-        self.pi, self.pj = newidx[self.pi[kp]], newidx[self.pj[kp]]
-        self.wi, self.ws = newidx[self.wi[kw]], self.ws[kw]
+        new_index = np.cumsum(keep_mask) - 1
+        keep_pairs = keep_mask[self.pi] & keep_mask[self.pj]
+        keep_walls = keep_mask[self.wi]
+        self.pi, self.pj = new_index[self.pi[keep_pairs]], new_index[self.pj[keep_pairs]]
+        self.wi, self.ws = new_index[self.wi[keep_walls]], self.ws[keep_walls]
         self.q_ref = self.q_ref[keep_mask]
-        return np.concatenate([kp, kw])
+        return np.concatenate([keep_pairs, keep_walls])

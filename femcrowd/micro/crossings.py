@@ -16,8 +16,8 @@ def segment_crossings(p0, p1, segments, *, ending_counts: bool = False) -> np.nd
     a = segments[:, 0][None]  # (1, E, 2)
     ab = (segments[:, 1] - segments[:, 0])[None]
     chunk = max(1, 1_000_000 // len(segments))   # at most 10^6 move-segment pairs at once
-    for s in range(0, len(p0), chunk):
-        q0, q1 = p0[s : s + chunk, None], p1[s : s + chunk, None]
+    for start in range(0, len(p0), chunk):
+        q0, q1 = p0[start : start + chunk, None], p1[start : start + chunk, None]
         s0 = ab[..., 0] * (q0[..., 1] - a[..., 1]) - ab[..., 1] * (q0[..., 0] - a[..., 0])
         s1 = ab[..., 0] * (q1[..., 1] - a[..., 1]) - ab[..., 1] * (q1[..., 0] - a[..., 0])
         on_line = (s1 == 0) & (s0 != 0) if ending_counts else (s0 == 0) & (s1 != 0)
@@ -29,5 +29,5 @@ def segment_crossings(p0, p1, segments, *, ending_counts: bool = False) -> np.nd
         x = q0 + t[..., None] * (q1 - q0)
         mu = ((x - a) * ab).sum(-1) / (ab * ab).sum(-1)
         hit = cross & (mu >= 0) & (mu <= 1)
-        out[s : s + chunk] = np.where(hit, np.where(s0 != 0, np.sign(s0), -np.sign(s1)), 0)
+        out[start : start + chunk] = np.where(hit, np.where(s0 != 0, np.sign(s0), -np.sign(s1)), 0)
     return out

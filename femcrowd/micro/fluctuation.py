@@ -38,8 +38,6 @@ import math
 
 import numpy as np
 
-__all__ = ["FLUCTUATION_TIME", "Fluctuation"]
-
 #: correlation time theta (s) of the perturbation: the relaxation time of Helbing et al. (2000)
 FLUCTUATION_TIME = 0.5
 #: the perturbation's random stream, apart from the other users of the seed

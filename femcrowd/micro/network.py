@@ -14,8 +14,6 @@ import numpy as np
 from .contacts import CandidateList, Constraints, WallSet
 from .projection import NewtonPattern
 
-__all__ = ["ContactNetwork"]
-
 
 class ContactNetwork:
     """Candidate list, constraint rows, multipliers and factorisation pattern of a crowd of discs.
@@ -32,7 +30,7 @@ class ContactNetwork:
     def reset(self) -> None:
         """Start afresh at the next step (discs added, walls changed, a restart)."""
         self.cl: CandidateList | None = None
-        self._C: Constraints | None = None
+        self._constraints: Constraints | None = None
         self.lam = np.zeros(0)
         self.pattern.forget()
 
@@ -56,37 +54,37 @@ class ContactNetwork:
         lam = np.zeros(self.cl.m)
         if old_keys is not None and len(old_keys) and len(self.lam) == len(old_keys):
             new_keys = self.cl.keys(len(q))
-            o = np.argsort(old_keys)
-            pos = np.minimum(np.searchsorted(old_keys[o], new_keys), len(o) - 1)
-            hit = old_keys[o][pos] == new_keys
-            lam[hit] = self.lam[o][pos[hit]]
-        self.lam, self._C = lam, None
+            order = np.argsort(old_keys)
+            pos = np.minimum(np.searchsorted(old_keys[order], new_keys), len(order) - 1)
+            hit = old_keys[order][pos] == new_keys
+            lam[hit] = self.lam[order][pos[hit]]
+        self.lam, self._constraints = lam, None
 
     def constraints(self, q, r) -> Constraints:
         """The rows of the list at the centres q (computed once per configuration)."""
-        if self._C is None:
-            self._C = self.cl.constraints(q, r, self.walls)
-        return self._C
+        if self._constraints is None:
+            self._constraints = self.cl.constraints(q, r, self.walls)
+        return self._constraints
 
     def moved(self) -> None:
         """The centres changed: the rows are computed again when asked for."""
-        self._C = None
+        self._constraints = None
 
     def remove(self, keep) -> None:
         """Discs left (boolean mask of those that stay): their rows and pattern slots go."""
         self.lam = self.lam[self.cl.remove(keep)]
         self.pattern.keep(keep)
-        self._C = None
+        self._constraints = None
 
     def overlaps(self, q, r) -> tuple[float, float]:
         """The largest overlap at the centres q, in metres and over the smaller radius of the pair."""
         if self.cl is None or not len(q):
             return 0.0, 0.0
-        C = self.constraints(q, r)
-        if not C.m:
+        constraints = self.constraints(q, r)
+        if not constraints.m:
             return 0.0, 0.0
-        radius = np.concatenate([np.minimum(r[C.pi], r[C.pj]), r[C.wi]])
-        return max(0.0, float(-C.D.min())), max(0.0, float((-C.D / radius).max()))
+        radius = np.concatenate([np.minimum(r[constraints.pi], r[constraints.pj]), r[constraints.wi]])
+        return max(0.0, float(-constraints.D.min())), max(0.0, float((-constraints.D / radius).max()))
 
     @property
     def candidates(self) -> int:

@@ -47,8 +47,6 @@ import numpy as np
 from ..linalg.cholmod import Cholesky
 from .contacts import Constraints
 
-__all__ = ["ProjectionResult", "project", "kkt_residual"]
-
 
 @dataclass
 class ProjectionResult:
@@ -73,18 +71,18 @@ class ProjectionResult:
         return int(np.count_nonzero(self.lam > 0))
 
 
-def kkt_residual(C: Constraints, U, d, u, lam) -> float:
+def kkt_residual(constraints: Constraints, U, d, u, lam) -> float:
     """max of |u + B^T lam - U|, |min(lam, d - B u)| (feasibility + complementarity)."""
     U = np.asarray(U, float)
-    stat = np.abs(u + C.rmatvec(lam) - U).max() if C.N else 0.0
-    if C.m == 0:
+    stat = np.abs(u + constraints.rmatvec(lam) - U).max() if constraints.N else 0.0
+    if constraints.m == 0:
         return float(stat)
-    nat = np.abs(np.minimum(lam, d - C.matvec(u))).max()
+    nat = np.abs(np.minimum(lam, d - constraints.matvec(u))).max()
     return float(max(stat, nat))
 
 
 def project(
-    C: Constraints,
+    constraints: Constraints,
     U,
     d,
     *,
@@ -107,47 +105,43 @@ def project(
     interior point method stopped at strict feasibility and a certified
     relative objective gap <= gap_tol (see :func:`_exact`).
     """
-    U = np.asarray(U, dtype=float).reshape(C.N, 2)
-    d = np.asarray(d, dtype=float).reshape(C.m)
-    lam = np.zeros(C.m) if lam0 is None else np.maximum(np.asarray(lam0, float).reshape(C.m), 0.0)
-    atol = tol * max(1.0, float(np.abs(U).max()) if C.N else 1.0)
+    U = np.asarray(U, dtype=float).reshape(constraints.N, 2)
+    d = np.asarray(d, dtype=float).reshape(constraints.m)
+    lam = np.zeros(constraints.m) if lam0 is None else np.maximum(np.asarray(lam0, float).reshape(constraints.m), 0.0)
+    atol = tol * max(1.0, float(np.abs(U).max()) if constraints.N else 1.0)
     if method == "exact":
-        solve = lambda Cw, dw, lw: _exact(Cw, U, dw, lw, atol, max_iter, rho, max_fact, gap_tol, pattern)  # noqa: E731
+        solve = lambda rows, d_rows, lam_rows: _exact(rows, U, d_rows, lam_rows, atol, max_iter, rho,  # noqa: E731
+                                                      max_fact, gap_tol, pattern)
     elif method == "uzawa":
-        solve = lambda Cw, dw, lw: _uzawa(Cw, U, dw, lw, atol, max_iter or 100_000, nu)  # noqa: E731
+        solve = lambda rows, d_rows, lam_rows: _uzawa(rows, U, d_rows, lam_rows, atol, max_iter or 100_000, nu)  # noqa: E731
     else:
         raise ValueError(f"unknown projection method {method!r} (exact, uzawa)")
-    if C.m == 0:
-        return solve(C, d, lam)
+    if constraints.m == 0:
+        return solve(constraints, d, lam)
     # working set: rows that the desired motion can reach (|B_i v| <= |v_i| + |v_j|);
     # the others are checked afterwards and added if violated, so the result is the
     # projection on the full set.
     speed = np.sqrt((U * U).sum(1))
-    reach = np.concatenate([speed[C.pi] + speed[C.pj], speed[C.wi]])
-    W = (d <= 2.0 * reach + atol) | (lam > 0)
-    total_it = total_fact = 0
+    reach = np.concatenate([speed[constraints.pi] + speed[constraints.pj], speed[constraints.wi]])
+    working = (d <= 2.0 * reach + atol) | (lam > 0)
+    total_iterations = total_factorizations = 0
     fallback = False
     lam_full = lam.copy()
     for _ in range(50):
-        Cw = C.subset(W) if not W.all() else C
-        res = solve(Cw, d[W], lam_full[W])
-        total_it += res.iterations
-        total_fact += res.factorizations
-        fallback |= res.fallback
-        lam_full = np.zeros(C.m)
-        lam_full[np.flatnonzero(W)] = res.lam
-        viol = ~W & (C.matvec(res.u) - d > atol)
-        if not viol.any():
+        rows = constraints.subset(working) if not working.all() else constraints
+        result = solve(rows, d[working], lam_full[working])
+        total_iterations += result.iterations
+        total_factorizations += result.factorizations
+        fallback |= result.fallback
+        lam_full = np.zeros(constraints.m)
+        lam_full[np.flatnonzero(working)] = result.lam
+        violated = ~working & (constraints.matvec(result.u) - d > atol)
+        if not violated.any():
             break
-        W = W | viol
-    kkt = kkt_residual(C, U, d, res.u, lam_full)
-    return ProjectionResult(res.u, lam_full, total_it, total_fact, kkt, kkt <= atol, res.method, fallback,
-                            res.gap, res.change)
-
-
-# --------------------------------------------------------------------------
-# exact: semismooth Newton augmented Lagrangian
-# --------------------------------------------------------------------------
+        working = working | violated
+    kkt = kkt_residual(constraints, U, d, result.u, lam_full)
+    return ProjectionResult(result.u, lam_full, total_iterations, total_factorizations, kkt, kkt <= atol,
+                            result.method, fallback, result.gap, result.change)
 
 
 class NewtonPattern:
@@ -183,14 +177,14 @@ class NewtonPattern:
                               new[np.maximum(self.discs, 0)], -1)
         self.where = self.where[kept]
 
-    def matrix(self, C: Constraints) -> _NewtonMatrix:
-        """The Newton matrix of the rows of C, on the kept pattern if they fit in it."""
-        lo, hi = np.minimum(C.pi, C.pj), np.maximum(C.pi, C.pj)
-        keys = lo.astype(np.int64) * C.N + hi
-        discs = np.unique(np.concatenate([C.pi, C.pj, C.wi]))
-        if not (C.N == self.N and np.all(self.where[discs] >= 0) and _contains(self.keys, keys)):
-            self._analyse(C.N, np.unique(keys), discs)
-        return _NewtonMatrix(C, self, keys, len(discs))
+    def matrix(self, constraints: Constraints) -> _NewtonMatrix:
+        """The Newton matrix of the rows of `constraints`, on the kept pattern if they fit in it."""
+        lo, hi = np.minimum(constraints.pi, constraints.pj), np.maximum(constraints.pi, constraints.pj)
+        keys = lo.astype(np.int64) * constraints.N + hi
+        discs = np.unique(np.concatenate([constraints.pi, constraints.pj, constraints.wi]))
+        if not (constraints.N == self.N and np.all(self.where[discs] >= 0) and _contains(self.keys, keys)):
+            self._analyse(constraints.N, np.unique(keys), discs)
+        return _NewtonMatrix(constraints, self, keys, len(discs))
 
     def _analyse(self, N, keys, discs):
         """Entries of the lower triangle: per disc its 2x2 diagonal block (xx, yx, yy), per pair the
@@ -246,27 +240,28 @@ def _contains(sorted_keys, keys) -> bool:
 
 
 class _NewtonMatrix:
-    """I + B^T diag(w) B for the rows of C, on a pattern that holds them.
+    """I + B^T diag(w) B for the rows of `constraints`, on a pattern that holds them.
 
     Row i (pair a-b with normal c, or disc a against a wall with normal c) adds w_i c c^T to the
     diagonal blocks of its discs and -w_i c c^T to the off-diagonal block of the pair: the values
     of a factorisation are one weighted bincount over these contributions.
     """
 
-    def __init__(self, C: Constraints, pattern: NewtonPattern, keys, touched: int):
-        self.touched = touched   # discs that the rows of C touch
-        at = pattern.where
+    def __init__(self, constraints: Constraints, pattern: NewtonPattern, keys, touched: int):
+        self.touched = touched   # discs that the rows touch
+        slot_of = pattern.where
         pair = np.searchsorted(pattern.keys, keys)
-        cp, cw = C.cp, C.cw
+        cp, cw = constraints.cp, constraints.cw
         block = lambda c: np.stack([c[:, 0] ** 2, c[:, 0] * c[:, 1], c[:, 1] ** 2], 1)  # noqa: E731
-        bp, bw = block(cp), block(cw)
-        off = np.stack([bp[:, 0], bp[:, 1], bp[:, 1], bp[:, 2]], 1)
-        self.position = np.concatenate([pattern.diag[at[C.pi]].ravel(), pattern.diag[at[C.pj]].ravel(),
-                                        pattern.diag[at[C.wi]].ravel(), pattern.off[pair].ravel()])
-        self.base = np.concatenate([bp.ravel(), bp.ravel(), bw.ravel(), -off.ravel()])
-        rows = np.arange(C.m)
-        self.row = np.concatenate([np.repeat(rows[: C.mp], 3), np.repeat(rows[: C.mp], 3),
-                                   np.repeat(rows[C.mp:], 3), np.repeat(rows[: C.mp], 4)])
+        pair_block, wall_block = block(cp), block(cw)
+        off = np.stack([pair_block[:, 0], pair_block[:, 1], pair_block[:, 1], pair_block[:, 2]], 1)
+        self.position = np.concatenate([pattern.diag[slot_of[constraints.pi]].ravel(),
+                                        pattern.diag[slot_of[constraints.pj]].ravel(),
+                                        pattern.diag[slot_of[constraints.wi]].ravel(), pattern.off[pair].ravel()])
+        self.base = np.concatenate([pair_block.ravel(), pair_block.ravel(), wall_block.ravel(), -off.ravel()])
+        rows = np.arange(constraints.m)
+        self.row = np.concatenate([np.repeat(rows[: constraints.mp], 3), np.repeat(rows[: constraints.mp], 3),
+                                   np.repeat(rows[constraints.mp:], 3), np.repeat(rows[: constraints.mp], 4)])
         self.identity = pattern.identity
         self.fact, self.slots = pattern.fact, len(pattern.discs)
         # the pattern's slots whose disc is still here (one that left holds -1), and those discs
@@ -285,9 +280,9 @@ def _psolve(newton, x):
     """Apply the factorised Newton matrix's inverse (identity off its discs)."""
     y = x.copy()
     if newton.fact is not None:
-        xs = np.zeros((newton.slots, 2))
-        xs[newton.slot] = x[newton.disc]
-        y[newton.disc] = np.array(newton.fact.solve(xs.ravel())).reshape(-1, 2)[newton.slot]
+        packed = np.zeros((newton.slots, 2))
+        packed[newton.slot] = x[newton.disc]
+        y[newton.disc] = np.array(newton.fact.solve(packed.ravel())).reshape(-1, 2)[newton.slot]
     return y
 
 
@@ -298,32 +293,32 @@ def _line_search(v, U, delta, z, w, rho):
     """
     p0 = float(np.sum((v - U) * delta))
     p1 = float(np.sum(delta * delta))
-    act0 = (z > 0) | ((z == 0) & (w > 0))
-    C0 = p0 + float(np.dot(z[act0], w[act0]))
-    C1 = p1 + rho * float(np.dot(w[act0], w[act0]))
+    active0 = (z > 0) | ((z == 0) & (w > 0))
+    C0 = p0 + float(np.dot(z[active0], w[active0]))
+    C1 = p1 + rho * float(np.dot(w[active0], w[active0]))
     if C0 >= 0:  # not a descent direction (round-off level gradient)
         return 0.0
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):   # w = 0 or tiny: no event
         t = -z / (rho * w)
-    ev = np.flatnonzero((t > 0) & (t < 1) & (w != 0))
+    events = np.flatnonzero((t > 0) & (t < 1) & (w != 0))
     # derivative at a = 1
     z1 = z + rho * w
-    a1 = z1 > 0
-    if p0 + p1 + float(np.dot(z1[a1], w[a1])) <= 0:
+    active1 = z1 > 0
+    if p0 + p1 + float(np.dot(z1[active1], w[active1])) <= 0:
         return 1.0
-    if len(ev) == 0:
+    if len(events) == 0:
         return min(1.0, -C0 / C1) if C1 > 0 else 1.0
-    o = ev[np.argsort(t[ev], kind="stable")]
-    te = t[o]
-    sgn = np.where(w[o] > 0, 1.0, -1.0)  # enter (w > 0) or leave (w < 0)
-    c0 = np.concatenate([[C0], C0 + np.cumsum(sgn * z[o] * w[o])])
-    c1 = np.concatenate([[C1], C1 + np.cumsum(sgn * rho * w[o] ** 2)])
-    ends = np.concatenate([te, [1.0]])
-    val = c0 + ends * c1
-    k = int(np.argmax(val >= 0)) if np.any(val >= 0) else len(val) - 1
+    order = events[np.argsort(t[events], kind="stable")]
+    t_events = t[order]
+    sign = np.where(w[order] > 0, 1.0, -1.0)  # enter (w > 0) or leave (w < 0)
+    c0 = np.concatenate([[C0], C0 + np.cumsum(sign * z[order] * w[order])])
+    c1 = np.concatenate([[C1], C1 + np.cumsum(sign * rho * w[order] ** 2)])
+    ends = np.concatenate([t_events, [1.0]])
+    slope = c0 + ends * c1
+    k = int(np.argmax(slope >= 0)) if np.any(slope >= 0) else len(slope) - 1
     if c1[k] <= 0:
         return float(ends[k])
-    lo = 0.0 if k == 0 else float(te[k - 1])
+    lo = 0.0 if k == 0 else float(t_events[k - 1])
     return float(min(max(-c0[k] / c1[k], lo), ends[k]))
 
 
@@ -335,36 +330,36 @@ class _MultiplierUpdate:
     def __init__(self):
         self.prev_step = None   # the last increment
 
-    def __call__(self, lam, z, act):
-        new = np.maximum(np.where(act, z, 0.0), 0.0)
+    def __call__(self, lam, z, active):
+        new = np.maximum(np.where(active, z, 0.0), 0.0)
         step = new - lam
         if self.prev_step is not None:
-            ds = np.abs(step - self.prev_step).max()
-            sm = np.abs(step).max()
-            dec = step < 0
-            if sm > 0 and ds <= 1e-3 * sm and np.any(dec & (new > 0)):
-                ratio = new[dec] / -step[dec]
+            change = np.abs(step - self.prev_step).max()
+            size = np.abs(step).max()
+            decreasing = step < 0
+            if size > 0 and change <= 1e-3 * size and np.any(decreasing & (new > 0)):
+                ratio = new[decreasing] / -step[decreasing]
                 t = float(ratio.min())
                 if t > 1.0:
                     new = np.maximum(new + t * step, 0.0)
-                    new[np.flatnonzero(dec)[np.argmin(ratio)]] = 0.0
+                    new[np.flatnonzero(decreasing)[np.argmin(ratio)]] = 0.0
                     self.prev_step = None
                     return new
         self.prev_step = step
         return new
 
 
-def _ssn_alm(C: Constraints, U, d, lam, atol, max_iter, rho, newton, max_fact=None):
+def _ssn_alm(constraints: Constraints, U, d, lam, atol, max_iter, rho, newton, max_fact=None):
     """Semismooth Newton / multiplier iterations in incremental (refinement) form.
 
-    ``newton``: the :class:`_NewtonMatrix` of the rows of C (shared with the
+    ``newton``: the :class:`_NewtonMatrix` of the rows of `constraints` (shared with the
     interior point and the polish).
     The residuals r1 = U - v - B^T lam and r2 = d - B v are evaluated without
     the factor rho, and the multipliers are updated by increments, so the
     result reaches round-off accuracy although rho is large (the large rho
     only makes each multiplier update contract by 1 / (1 + rho mu)).
     """
-    m = C.m
+    m = constraints.m
     if m == 0:
         return ProjectionResult(U.copy(), lam, 0, 0, 0.0, True, "exact")
     scale = max(1.0, float(np.abs(U).max()), float(np.abs(d[np.isfinite(d)]).max(initial=0.0)))
@@ -372,96 +367,97 @@ def _ssn_alm(C: Constraints, U, d, lam, atol, max_iter, rho, newton, max_fact=No
     eta = 1e3 * rho * np.finfo(float).eps * scale
     gtol = min(0.5 * atol, max(1e-2 * atol, 1e-3 * eta))  # inner gradient at round-off
     if np.any(lam > 0):
-        v = U - C.rmatvec(lam)
+        v = U - constraints.rmatvec(lam)
         forced = lam > 0
     else:
         v = U.copy()
         forced = None
-    fact_act = None
-    nfact = it = 0
+    factored_rows = None
+    factorizations = iterations = 0
     converged = False
     kkt = np.inf
-    hprev = None
+    prev_newton_rows = None
 
     update = _MultiplierUpdate()
 
     while True:
-        r1 = U - v - C.rmatvec(lam)
-        r2 = d - C.matvec(v)
+        r1 = U - v - constraints.rmatvec(lam)
+        r2 = d - constraints.matvec(v)
         kkt = max(np.abs(r1).max(), np.abs(np.minimum(lam, r2)).max())
         if kkt <= atol:
             converged = True
             break
-        if it >= max_iter or (max_fact is not None and nfact >= max_fact):
+        if iterations >= max_iter or (max_fact is not None and factorizations >= max_fact):
             break
         z = lam - rho * r2
-        act = forced if forced is not None else z > 0
+        active = forced if forced is not None else z > 0
         # Newton matrix set: the active rows; a row whose z is round-off keeps its
         # previous status (both are generalised Hessians; flipping would zigzag)
-        if forced is not None or hprev is None:
-            hact = act
+        if forced is not None or prev_newton_rows is None:
+            newton_rows = active
         else:
-            hact = (z > eta) | ((z > -eta) & hprev)
-        hprev = hact
+            newton_rows = (z > eta) | ((z > -eta) & prev_newton_rows)
+        prev_newton_rows = newton_rows
         # Newton step for phi(.; lam): H_A delta = -grad phi = r1 + B^T(rho r2 on A, lam off A)
-        rhs = r1 + C.rmatvec(np.where(act, rho * r2, lam))
+        rhs = r1 + constraints.rmatvec(np.where(active, rho * r2, lam))
         if np.abs(rhs).max() <= gtol and forced is None:
             # phi(.; lam) is minimised to round-off: multiplier update
-            lam = update(lam, z, act)
+            lam = update(lam, z, active)
             continue
-        if fact_act is None or forced is not None or not np.array_equal(hact, fact_act):
-            newton.factor(rho * hact)
-            nfact += 1
-            fact_act = hact
+        if factored_rows is None or forced is not None or not np.array_equal(newton_rows, factored_rows):
+            newton.factor(rho * newton_rows)
+            factorizations += 1
+            factored_rows = newton_rows
         delta = _psolve(newton, rhs)
-        it += 1
+        iterations += 1
         if forced is None and np.abs(delta).max() <= 1e-2 * atol:
             # the Newton step is at round-off: phi(.; lam) is minimised, update lam
-            lam = update(lam, z, act)
+            lam = update(lam, z, active)
             continue
-        w = C.matvec(delta)
+        w = constraints.matvec(delta)
         alpha = 1.0 if forced is not None else _line_search(v, U, delta, z, w, rho)
         forced = None
         if alpha <= 0.0:  # no descent left at round-off level: refactor exactly
-            fact_act = None
+            factored_rows = None
             continue
         v = v + alpha * delta
-        r2n = r2 - alpha * w  # incremental: d - B v_new
-        zn = lam - rho * r2n
-        new_act = zn > 0
-        if alpha == 1.0 and not np.any((new_act != act) & (np.abs(zn) > eta)):
+        r2_new = r2 - alpha * w  # incremental: d - B v_new
+        z_new = lam - rho * r2_new
+        new_active = z_new > 0
+        if alpha == 1.0 and not np.any((new_active != active) & (np.abs(z_new) > eta)):
             # v minimises phi(.; lam) on this piece: multiplier update
-            lam = update(lam, zn, act)
-    return ProjectionResult(v, lam, it, nfact, float(kkt), converged, "exact")
+            lam = update(lam, z_new, active)
+    return ProjectionResult(v, lam, iterations, factorizations, float(kkt), converged, "exact")
 
 
-def _exact(C: Constraints, U, d, lam, atol, max_iter, rho, max_fact, gap_tol, pattern):
+def _exact(constraints: Constraints, U, d, lam, atol, max_iter, rho, max_fact, gap_tol, pattern):
     """Semismooth Newton (exact to round-off) unless the crowd is jammed; in a jam, or when the Newton
     iteration needs more than max_fact factorisations, the interior point (:func:`_ipm`), polished to
     round-off by the Newton iteration when its last affine step nearly fits (small, non-degenerate
     problems). One Newton-matrix pattern, kept by `pattern` between projections, serves every stage.
     """
-    newton = (pattern or NewtonPattern()).matrix(C)
+    newton = (pattern or NewtonPattern()).matrix(constraints)
     jammed = np.count_nonzero(lam > 0) >= newton.touched > 0   # a hyperstatic contact network
-    nit = nfact = 0
+    iterations = factorizations = 0
     if not jammed:
-        res = _ssn_alm(C, U, d, lam, atol, max_iter or 200, rho, newton, max_fact=max_fact)
-        if res.converged or C.m == 0:
-            return res
-        nit, nfact = res.iterations, res.factorizations
-    ipm = _ipm(C, U, d, lam, atol, 80, newton, gap_tol)
-    nit, nfact = nit + ipm.iterations, nfact + ipm.iterations + 1
+        result = _ssn_alm(constraints, U, d, lam, atol, max_iter or 200, rho, newton, max_fact=max_fact)
+        if result.converged or constraints.m == 0:
+            return result
+        iterations, factorizations = result.iterations, result.factorizations
+    ipm = _ipm(constraints, U, d, lam, atol, 80, newton, gap_tol)
+    iterations, factorizations = iterations + ipm.iterations, factorizations + ipm.iterations + 1
     if ipm.affine_step >= 0.9:
-        s = d - C.matvec(ipm.u)
-        pol = _ssn_alm(C, U, d, np.where(ipm.lam > s, ipm.lam, 0.0), atol, max_iter or 60, rho, newton,
-                       max_fact=max_fact)
-        nit, nfact = nit + pol.iterations, nfact + pol.factorizations
-        if pol.converged:
-            return ProjectionResult(pol.u, pol.lam, nit, nfact, pol.kkt, True, "exact", fallback=True)
-    s = d - C.matvec(ipm.u)
+        s = d - constraints.matvec(ipm.u)
+        polished = _ssn_alm(constraints, U, d, np.where(ipm.lam > s, ipm.lam, 0.0), atol, max_iter or 60, rho,
+                            newton, max_fact=max_fact)
+        iterations, factorizations = iterations + polished.iterations, factorizations + polished.factorizations
+        if polished.converged:
+            return ProjectionResult(polished.u, polished.lam, iterations, factorizations, polished.kkt, True, "exact",
+                                    fallback=True)
+    s = d - constraints.matvec(ipm.u)
     lam_ipm = np.where(ipm.lam > s, ipm.lam, 0.0)   # the contacts the interior point holds active
-    kkt = kkt_residual(C, U, d, ipm.u, lam_ipm)
-    return ProjectionResult(ipm.u, lam_ipm, nit, nfact, kkt, kkt <= atol, "exact", fallback=True,
+    kkt = kkt_residual(constraints, U, d, ipm.u, lam_ipm)
+    return ProjectionResult(ipm.u, lam_ipm, iterations, factorizations, kkt, kkt <= atol, "exact", fallback=True,
                             gap=ipm.gap, change=ipm.change)
 
 
@@ -475,7 +471,7 @@ class _IPMResult:
     affine_step: float  # its length a in (0, 1]
 
 
-def _ipm(C: Constraints, U, d, lam0, atol, max_iter, newton, gap_tol):
+def _ipm(constraints: Constraints, U, d, lam0, atol, max_iter, newton, gap_tol):
     """Primal-dual interior point (Mehrotra 1992 predictor-corrector) for the QP, on the slack form
     B v + s = d, s >= 0, lam >= 0, lam s = mu.
 
@@ -485,11 +481,11 @@ def _ipm(C: Constraints, U, d, lam0, atol, max_iter, newton, gap_tol):
     where P(v) = 1/2 |v - U|^2 and D(lam) = lam.(B U - d) - 1/2 |B^T lam|^2 <= min P is the Lagrangian dual
     bound: the gap it reports bounds the true one.
     """
-    m = C.m
+    m = constraints.m
     scale = max(1.0, float(np.abs(U).max()))
     feasible_tol = 1e-12 * scale
     floor = 1e-14 * 0.5 * float(np.sum(U * U))   # gap at round-off relative to 1/2 |U|^2 (v = U): 0
-    BU_d = C.matvec(U) - d
+    BU_d = constraints.matvec(U) - d
     v = U.copy()
     # start well inside (s, lam >= 0.3 max|U|: nearer the boundary costs more iterations, measured)
     s = np.maximum(-BU_d, 0.3 * scale)
@@ -497,8 +493,8 @@ def _ipm(C: Constraints, U, d, lam0, atol, max_iter, newton, gap_tol):
 
     def direction(rd, rp, rc):
         """Newton direction for v - U + B^T lam = rd, B v + s - d = rp, lam s = rc (residuals to cancel)."""
-        dv = _psolve(newton, -rd - C.rmatvec((lam * rp - rc) / s))
-        ds = -rp - C.matvec(dv)
+        dv = _psolve(newton, -rd - constraints.rmatvec((lam * rp - rc) / s))
+        ds = -rp - constraints.matvec(dv)
         return dv, ds, (-rc - lam * ds) / s
 
     def step_length(ds, dl):
@@ -507,9 +503,9 @@ def _ipm(C: Constraints, U, d, lam0, atol, max_iter, newton, gap_tol):
         ratio = np.divide(-x, dx, out=np.full_like(x, np.inf), where=dx < 0)
         return min(1.0, float(ratio.min()))
 
-    it, gap, last_change = 0, np.inf, np.inf
+    iterations, gap, last_change = 0, np.inf, np.inf
     while True:
-        Bv, BTlam = C.matvec(v), C.rmatvec(lam)
+        Bv, BTlam = constraints.matvec(v), constraints.rmatvec(lam)
         rd = v - U + BTlam
         rp = Bv + s - d
         mu = float(lam @ s) / m
@@ -520,12 +516,12 @@ def _ipm(C: Constraints, U, d, lam0, atol, max_iter, newton, gap_tol):
         try:
             newton.factor(lam / s)
         except ArithmeticError:   # weights lam / s so large that round-off breaks the factorisation:
-            return _IPMResult(v, lam, it, gap, last_change, 1.0)   # the active set is clear, polish it
+            return _IPMResult(v, lam, iterations, gap, last_change, 1.0)   # the active set is clear, polish it
         dv, ds, dl = direction(rd, rp, lam * s)          # affine (predictor) direction
         a = step_length(ds, dl)
-        if (feasible and gap <= gap_tol) or it >= max_iter:
+        if (feasible and gap <= gap_tol) or iterations >= max_iter:
             change = a * float(np.sqrt((dv * dv).sum(1)).max()) if len(dv) else 0.0
-            return _IPMResult(v, lam, it, gap, change, a)
+            return _IPMResult(v, lam, iterations, gap, change, a)
         sigma_mu = (float((s + a * ds) @ (lam + a * dl)) / m / mu) ** 3 * mu
         rc = lam * s + ds * dl - sigma_mu                 # Mehrotra's corrector
         dv, ds, dl = direction(rd, rp, rc)
@@ -544,38 +540,34 @@ def _ipm(C: Constraints, U, d, lam0, atol, max_iter, newton, gap_tol):
         v = v + a * dv
         s = s + a * ds
         lam = lam + a * dl
-        it += 1
+        iterations += 1
         last_change = a * float(np.sqrt((dv * dv).sum(1)).max())
 
 
-# --------------------------------------------------------------------------
-# Uzawa (Maury 2014, eq. 17)
-# --------------------------------------------------------------------------
-
-
-def _uzawa(C: Constraints, U, d, lam, atol, max_iter, nu):
-    if C.m == 0:
+def _uzawa(constraints: Constraints, U, d, lam, atol, max_iter, nu):
+    """Uzawa's projected gradient on the dual (Maury 2014, eq. 17) with the fixed step nu."""
+    if constraints.m == 0:
         return ProjectionResult(U.copy(), lam, 0, 0, 0.0, True, "uzawa")
     if nu is None:
-        nu = 1.9 / C.norm2_bound()  # 0 < nu < 2 / ||B||^2
+        nu = 1.9 / constraints.norm2_bound()  # 0 < nu < 2 / ||B||^2
     # work with the dual operator M = B B^T as a sparse matrix: one mat-vec per sweep
-    B = C.to_csr()
+    B = constraints.to_csr()
     M = (B @ B.T).tocsr()
     c = B @ U.ravel() - d  # B u - d = c - M lam  for u = U - B^T lam
-    it = 0
+    iterations = 0
     converged = False
     check = 10
-    while it < max_iter:
+    while iterations < max_iter:
         for _ in range(check):
-            res = c - M @ lam  # = B u^{k+1} - d with u^{k+1} = U - B^T lam^k
-            lam = np.maximum(lam + nu * res, 0.0)
-        it += check
-        res = c - M @ lam
-        if np.abs(np.minimum(lam, -res)).max() <= atol * 1e-2:
-            u = U - C.rmatvec(lam)
-            if kkt_residual(C, U, d, u, lam) <= atol:
+            residual = c - M @ lam  # = B u^{k+1} - d with u^{k+1} = U - B^T lam^k
+            lam = np.maximum(lam + nu * residual, 0.0)
+        iterations += check
+        residual = c - M @ lam
+        if np.abs(np.minimum(lam, -residual)).max() <= atol * 1e-2:
+            u = U - constraints.rmatvec(lam)
+            if kkt_residual(constraints, U, d, u, lam) <= atol:
                 converged = True
                 break
-    u = U - C.rmatvec(lam)
-    kkt = kkt_residual(C, U, d, u, lam)
-    return ProjectionResult(u, lam, it, 0, kkt, converged, "uzawa")
+    u = U - constraints.rmatvec(lam)
+    kkt = kkt_residual(constraints, U, d, u, lam)
+    return ProjectionResult(u, lam, iterations, 0, kkt, converged, "uzawa")

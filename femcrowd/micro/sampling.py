@@ -20,8 +20,6 @@ from scipy.spatial import cKDTree
 from ..mesh.triangles import doubled_areas
 from .contacts import WallSet, as_segments
 
-__all__ = ["read_discs_csv", "sample_discs", "target_count", "HEX_PACKING"]
-
 HEX_PACKING = np.pi / (2 * np.sqrt(3))  # densest packing of equal discs, ~0.9069
 
 
@@ -61,10 +59,10 @@ def _radius_moments(radius):
 
 
 def _triangle_data(points, triangles):
-    P = np.asarray(points, float)[:, :2]
-    T = np.asarray(triangles, np.intp)
-    a, b, c = P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]
-    return a, b, c, 0.5 * np.abs(doubled_areas(P, T))
+    points = np.asarray(points, float)[:, :2]
+    triangles = np.asarray(triangles, np.intp)
+    a, b, c = points[triangles[:, 0]], points[triangles[:, 1]], points[triangles[:, 2]]
+    return a, b, c, 0.5 * np.abs(doubled_areas(points, triangles))
 
 
 def target_count(density, points, triangles, radius, packing: float = HEX_PACKING) -> int:
@@ -135,13 +133,7 @@ def sample_discs(
         need = count - len(q)
         if need <= 0:
             break
-        k = np.minimum(np.searchsorted(cdf, rng.random(batch)), len(cdf) - 1)
-        u1, u2 = rng.random(batch), rng.random(batch)
-        flip = u1 + u2 > 1
-        u1[flip], u2[flip] = 1 - u1[flip], 1 - u2[flip]
-        x = a[k] + u1[:, None] * (b[k] - a[k]) + u2[:, None] * (c[k] - a[k])
-        rc = np.full(batch, rmin) if rmin == rmax else rng.uniform(rmin, rmax, batch)
-        ok = rng.random(batch) * bound[k] < np.clip(_eval_density(density, x), 0, 1)
+        x, rc, ok = _candidates(rng, batch, density, (a, b, c), cdf, bound, rmin, rmax)
         _reject_near_walls(ok, x, rc, rmax, obstacles)
         _reject_overlaps(ok, x, rc, rmax, tree, r)
         _reject_batch_clashes(ok, x, rc, rmax)
@@ -159,6 +151,20 @@ def sample_discs(
     return q, r
 
 
+def _candidates(rng, batch, density, corners, cdf, bound, rmin, rmax):
+    """A batch of candidate discs: centres drawn from the density (a triangle by the proposal's cdf, a uniform
+    point in it, accepted with probability density / bound), radii uniform in [rmin, rmax]: (x, r, accepted)."""
+    a, b, c = corners
+    k = np.minimum(np.searchsorted(cdf, rng.random(batch)), len(cdf) - 1)
+    u1, u2 = rng.random(batch), rng.random(batch)
+    flip = u1 + u2 > 1
+    u1[flip], u2[flip] = 1 - u1[flip], 1 - u2[flip]
+    x = a[k] + u1[:, None] * (b[k] - a[k]) + u2[:, None] * (c[k] - a[k])
+    rc = np.full(batch, rmin) if rmin == rmax else rng.uniform(rmin, rmax, batch)
+    ok = rng.random(batch) * bound[k] < np.clip(_eval_density(density, x), 0, 1)
+    return x, rc, ok
+
+
 def _proposal(density, a, b, c, area):
     """Density-weighted choice of triangles with exact thinning.
 
@@ -166,13 +172,13 @@ def _proposal(density, a, b, c, area):
     density at its vertices and centroid; a point drawn in it is then kept
     with probability density(x) / bound. Returns (cdf of the weights, bound).
     """
-    cen = (a + b + c) / 3.0
-    dv = np.clip(np.stack([_eval_density(density, p) for p in (a, b, c, cen)]), 0.0, 1.0)
-    bound = dv.max(axis=0)
-    wt = area * bound
-    if wt.sum() <= 0:
+    centroid = (a + b + c) / 3.0
+    at_points = np.clip(np.stack([_eval_density(density, p) for p in (a, b, c, centroid)]), 0.0, 1.0)
+    bound = at_points.max(axis=0)
+    weight = area * bound
+    if weight.sum() <= 0:
         raise ValueError("density is zero everywhere in the domain")
-    cdf = np.cumsum(wt)
+    cdf = np.cumsum(weight)
     return cdf / cdf[-1], bound
 
 
@@ -193,11 +199,11 @@ def _reject_overlaps(ok, x, rc, rmax, tree, r):
         return
     idx = np.flatnonzero(ok)
     n = len(r)
-    dd, jj = tree.query(x[idx], k=min(8, n), distance_upper_bound=rc[idx].max() + rmax)
-    dd, jj = dd.reshape(len(idx), -1), jj.reshape(len(idx), -1)
-    valid = jj < n
-    rr = np.where(valid, r[np.minimum(jj, n - 1)], 0.0)
-    clash = (valid & (dd < rc[idx][:, None] + rr)).any(axis=1)
+    dist, nearest = tree.query(x[idx], k=min(8, n), distance_upper_bound=rc[idx].max() + rmax)
+    dist, nearest = dist.reshape(len(idx), -1), nearest.reshape(len(idx), -1)
+    valid = nearest < n
+    r_nearest = np.where(valid, r[np.minimum(nearest, n - 1)], 0.0)
+    clash = (valid & (dist < rc[idx][:, None] + r_nearest)).any(axis=1)
     ok[idx[clash]] = False
 
 
@@ -218,9 +224,9 @@ def _reject_batch_clashes(ok, x, rc, rmax):
 
 def _boundary_edges(points, triangles):
     """Edges used by exactly one triangle, as (S, 2, 2) segments."""
-    P = np.asarray(points, float)[:, :2]
-    T = np.asarray(triangles, np.intp)
-    e = np.sort(np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]]), axis=1)
-    uniq, cnt = np.unique(e, axis=0, return_counts=True)
-    b = uniq[cnt == 1]
-    return P[b]
+    points = np.asarray(points, float)[:, :2]
+    triangles = np.asarray(triangles, np.intp)
+    edges = np.sort(np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1)
+    unique, uses = np.unique(edges, axis=0, return_counts=True)
+    boundary = unique[uses == 1]
+    return points[boundary]

@@ -40,8 +40,6 @@ from .fluctuation import FLUCTUATION_TIME, Fluctuation
 from .network import ContactNetwork
 from .projection import ProjectionResult, project
 
-__all__ = ["StepInfo", "MicroSimulation"]
-
 #: the projection of a step without discs
 NO_DISCS = ProjectionResult(u=np.zeros((0, 2)), lam=np.zeros(0), iterations=0, factorizations=0, kkt=0.0,
                             converged=True, method="none")
@@ -186,7 +184,6 @@ class MicroSimulation:
         self.contacts.reset()
         self._recover = self._recover or 1e-3 * float(r.min())
 
-    # ------------------------------------------------------------------
     @property
     def count(self) -> int:
         return len(self.q)
@@ -222,7 +219,6 @@ class MicroSimulation:
         if self.fluctuation is not None:
             self.fluctuation.restore({k[12:]: v for k, v in state.items() if k.startswith("fluctuation.")})
 
-    # ------------------------------------------------------------------
     def step(self) -> StepInfo:
         """One catching-up step (Maury 2014, eq. 15): returns its diagnostics."""
         clock = Stopwatch()
@@ -232,15 +228,15 @@ class MicroSimulation:
         if self.fluctuation is not None and N:
             U = U + self.fluctuation.xi
         if N:
-            res, C, rebuilds = self._project(U)
-            pressure = C.per_disc_sum(self.contacts.lam)
+            projection, constraints, rebuilds = self._project(U)
+            pressure = constraints.per_disc_sum(self.contacts.lam)
         else:
-            res, rebuilds, pressure = NO_DISCS, 0, np.zeros(0)
+            projection, rebuilds, pressure = NO_DISCS, 0, np.zeros(0)
         contacts = int(np.count_nonzero(self.contacts.lam > 0))
-        q_new = self.q + tau * res.u
+        q_new = self.q + tau * projection.u
         gone = segment_crossings(self.q, q_new, self.exits, ending_counts=True).any(axis=1)
         self.moved_to = self.q = q_new
-        self.u = res.u
+        self.u = projection.u
         self.contacts.moved()
         pressure = self._leave(gone, pressure)
         if self.fluctuation is not None:
@@ -250,62 +246,62 @@ class MicroSimulation:
         self.t += tau
         self.nstep += 1
         return StepInfo(
-            step=self.nstep, time=self.t, dt=tau, seconds=clock.seconds, iterations=res.iterations,
+            step=self.nstep, time=self.t, dt=tau, seconds=clock.seconds, iterations=projection.iterations,
             count=self.count, evacuated=self.evacuated, evacuated_now=int(gone.sum()), contacts=contacts,
-            max_overlap=max_overlap, overlap_r=overlap_r, gap=res.gap, change=res.change,
-            factorizations=res.factorizations, kkt=res.kkt, converged=res.converged, fallback=res.fallback,
-            rebuilds=rebuilds, candidates=self.contacts.candidates,
+            max_overlap=max_overlap, overlap_r=overlap_r, gap=projection.gap, change=projection.change,
+            factorizations=projection.factorizations, kkt=projection.kkt, converged=projection.converged,
+            fallback=projection.fallback, rebuilds=rebuilds, candidates=self.contacts.candidates,
             ids=self.ids, q=self.q, r=self.r, u=self.u, pressure=pressure,
         )
 
     def _project(self, U):
         """The projected velocity of the step (the QP on candidate pairs that cover the move; the list is rebuilt
-        and the QP solved again while a disc moves further than the skin allows): (result, constraints,
+        and the QP solved again while a disc moves further than the skin allows): (projection, constraints,
         rebuilds)."""
-        tau, net = self.tau, self.contacts
+        tau, network = self.tau, self.contacts
         # the list must cover the predicted moves (desired or last speed, whichever is larger)
         speed = np.sqrt(np.maximum((U * U).sum(1), (self.u * self.u).sum(1)))
-        rebuilds = net.cover(self.q, self.r, tau * speed, tau * np.sqrt((U * U).sum(1)))
-        res, feasible_tol = None, self.tol * max(1.0, float(np.abs(U).max()))
+        rebuilds = network.cover(self.q, self.r, tau * speed, tau * np.sqrt((U * U).sum(1)))
+        projection, feasible_tol = None, self.tol * max(1.0, float(np.abs(U).max()))
         for _ in range(6):
-            C = net.constraints(self.q, self.r)
-            d = np.maximum(C.D, -self._recover) / tau
+            constraints = network.constraints(self.q, self.r)
+            d = np.maximum(constraints.D, -self._recover) / tau
             # after a rebuild, velocities that satisfy the new rows (all inactive) are still the projection
-            if res is None or float((C.matvec(res.u) - d).max(initial=0.0)) > feasible_tol:
-                res = project(C, U, d, method=self.method, lam0=net.lam, tol=self.tol,
-                              max_iter=self.max_iter, pattern=net.pattern)
-                net.lam = res.lam
-            moved = tau * np.sqrt((res.u * res.u).sum(1))
-            if net.cl.travel_ok(self.q, moved):
-                return res, C, rebuilds
-            net.rebuild(self.q, self.r, max(net.base_skin, 2.5 * float(moved.max())))   # carries lam over
+            if projection is None or float((constraints.matvec(projection.u) - d).max(initial=0.0)) > feasible_tol:
+                projection = project(constraints, U, d, method=self.method, lam0=network.lam, tol=self.tol,
+                                     max_iter=self.max_iter, pattern=network.pattern)
+                network.lam = projection.lam
+            moved = tau * np.sqrt((projection.u * projection.u).sum(1))
+            if network.cl.travel_ok(self.q, moved):
+                return projection, constraints, rebuilds
+            network.rebuild(self.q, self.r, max(network.base_skin, 2.5 * float(moved.max())))   # carries lam over
             rebuilds += 1
         raise RuntimeError("candidate list could not cover the step")  # pragma: no cover - unbounded velocity
 
     def _leave(self, gone, pressure):
         """Remove the discs that crossed an exit (mask gone) and count them; returns the pressure of those left."""
-        ngone = int(gone.sum())
-        if not ngone:
+        nevacuated = int(gone.sum())
+        if not nevacuated:
             return pressure
         keep = ~gone
         self.contacts.remove(keep)
         self.q, self.r, self.ids, self.u = self.q[keep], self.r[keep], self.ids[keep], self.u[keep]
         if self.fluctuation is not None:
             self.fluctuation.keep(keep)
-        self.evacuated += ngone
+        self.evacuated += nevacuated
         return pressure[keep]
 
     def run(self, t_end: float | None = None, max_steps: int | None = None,
             stop_when_empty: bool = True) -> Iterator[StepInfo]:
         """Yield StepInfo for each step until t_end, max_steps or (by default) no disc is left."""
-        n = 0
+        taken = 0
         while True:
             if t_end is not None and self.t >= t_end - 1e-12 * max(1.0, abs(t_end)):
                 return
-            if max_steps is not None and n >= max_steps:
+            if max_steps is not None and taken >= max_steps:
                 return
             if stop_when_empty and self.count == 0:
                 return
             yield self.step()
-            n += 1
+            taken += 1
 

@@ -73,6 +73,21 @@ def test_fixed_dt_is_capped_when_the_cfl_limit_shrinks(tmp_path):
     assert summary["min_density_ever"] >= 0 and summary["max_mass_error"] < 1e-12
 
 
+def test_implicit_transport_takes_a_fixed_dt_beyond_the_cfl_one_step(tmp_path):
+    """The implicit transport accepts time.dt up to 100 x the CFL-1 step (checked at set-up): a dt of 20 x is
+    taken as given, the same steps as time.cfl = 20."""
+    def steps(name, *overrides):
+        result = CliRunner().invoke(main, ["run", str(stress.CASES / "cfl-one"), "--out", str(tmp_path / name), "-q",
+                                           "--set", 'scheme.transport="implicit"', "--set", "time.end=0.5",
+                                           *overrides])
+        assert result.exit_code == 0, result.output
+        with open(tmp_path / name / "history.csv", newline="") as f:
+            return [float(row["dt"]) for row in csv.DictReader(f)][1:]
+    by_cfl = steps("cfl", "--set", "time.cfl=20")
+    by_dt = steps("dt", "--set", f"time.dt={by_cfl[0]!r}")
+    assert len(by_cfl) > 2 and by_dt == pytest.approx(by_cfl, rel=1e-12)
+
+
 def test_stress_command(tmp_path):
     """`femcrowd stress`: a row per scene, the table files, exit code 1 when a scene fails."""
     out = tmp_path / "st"
