@@ -84,7 +84,7 @@ def mesh(geometry, out, exit_size, size, walls_layer, obstacles_layer, door_laye
     A TOML floor plan gives the outer polygon, holes (polygons or circles),
     named exit segments, named interior door lines ([[doors]]: a door between
     two rooms, for a capacity) and the cell size (format:
-    femcrowd/mesh/floorplan.py and the shipped meshes/*.toml). A DXF drawing names them by layers:
+    femcrowd/mesh/plan.py and the shipped meshes/*.toml). A DXF drawing names them by layers:
     the outline on the walls layer, obstacles on theirs, exits and
     entrances on layers named exit*, entrance* (closed polylines, lines,
     arcs, circles). A WKT file holds one POLYGON (JuPedSim's walkable

@@ -15,7 +15,7 @@ A WKT file holds one POLYGON (its holes are the obstacles), as JuPedSim writes w
 exits come as extra segments (``femcrowd mesh plan.wkt --exit exit=10,2.5,10,3.5``).
 
 Both become the tables of a TOML floor plan and go through the same checks and meshing
-(mesh/floorplan.py); errors name the layer and the entity (its DXF handle).
+(mesh/plan.py); errors name the layer and the entity (its DXF handle).
 """
 
 import pathlib
@@ -23,12 +23,12 @@ import pathlib
 import numpy as np
 
 from ..errors import InputError
-from .floorplan import _check, _Reader
+from .plan import PlanReader, check_plan
 
 DEFAULT_LAYERS = {"walls": "walls", "obstacles": "obstacles", "doors": ("exit", "entrance")}
 
 
-class _CadReader(_Reader):
+class _CadReader(PlanReader):
     """Errors of the floor-plan checks, with the table keys translated to the drawing's layers and entities."""
 
     def __init__(self, file, origins):
@@ -51,7 +51,7 @@ def _short(value):
 
 
 def read_plan(file, walls=None, obstacles=None, doors=None, size=0.2, exits=()):
-    """(size, loops, circles, exits, tol) of a DXF or WKT floor plan, as floorplan._read returns them.
+    """(size, loops, circles, exits, tol) of a DXF or WKT floor plan, as plan.read_toml_plan returns them.
 
     exits: extra named segments ``[(name, (x0, y0), (x1, y1)), ...]`` (a WKT polygon has none of its own).
     """
@@ -70,7 +70,7 @@ def read_plan(file, walls=None, obstacles=None, doors=None, size=0.2, exits=()):
     for name, a, b in exits:
         origins[f"exits[{len(data['exits'])}]"] = f"--exit {name}"
         data["exits"].append({"name": name, "from": list(a), "to": list(b)})
-    return _check(data, _CadReader(file, origins))
+    return check_plan(data, _CadReader(file, origins))
 
 
 def _from_wkt(file, text):
