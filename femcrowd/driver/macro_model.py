@@ -215,7 +215,8 @@ class MacroModel:
         st = self.state
         return {"rho": st.rho, "p": st.p, "evacuated": st.evacuated, "t": st.t, "steps": st.steps,
                 **({} if st.jump is None else {"jump": st.jump}),
-                **parts(evacuation=self.evacuation, sources=self.sources, measure=self.measurements)}
+                **parts(evacuation=self.evacuation, sources=self.sources, measure=self.measurements,
+                        **{f"route{k}": v for k, v in enumerate(self.solver.routing)})}
 
     def restore(self, data: dict) -> None:
         """Continue from a snapshot."""
@@ -223,7 +224,8 @@ class MacroModel:
         st.rho, st.p, st.evacuated = data["rho"].copy(), data["p"].copy(), data["evacuated"].copy()
         st.jump = data["jump"].copy() if "jump" in data else st.jump
         st.t, st.steps = float(data["t"]), int(data["steps"])
-        restore_parts(data, evacuation=self.evacuation, sources=self.sources, measure=self.measurements)
+        restore_parts(data, evacuation=self.evacuation, sources=self.sources, measure=self.measurements,
+                      **{f"route{k}": v for k, v in enumerate(self.solver.routing)})
         self.inside = self.mass
 
     def open_files(self, directory, resume: bool = False) -> list:

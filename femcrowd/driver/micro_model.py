@@ -12,7 +12,9 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from ..macro.velocity import CongestionVelocity
 from ..micro import MicroSimulation
+from ..micro.density import disc_density
 from ..micro.strategies import DesiredVelocity, View
 from ..timer import Timer
 from .checkpoint import parts, restore_parts
@@ -85,6 +87,7 @@ class MicroModel:
                                        method=spec["method"], fluctuation=spec["fluctuation"], seed=spec["seed"])
             self.exits_time = 0.0   # a time at which the walls and exits of the discs are self.exits
             desired.sim = self.sim
+            self.routing = [p.velocity for p in populations if isinstance(p.velocity, CongestionVelocity)]
             self.desired, self.initial_count = desired, len(q)
             self.columns = list(MICRO_COLUMNS)
             if len(populations) > 1:
@@ -123,6 +126,11 @@ class MicroModel:
             sim.set_boundary(exits.segments("wall"), exits.segments("exit"))
             self.exits, self.exits_time = exits, sim.t
         sim.tau = min(self.tau, until - sim.t)
+        if any(velocity.due(sim.t, exits) for velocity in self.routing):
+            with self.timers("route"):   # the route choice, re-solved when it is due
+                density = disc_density(self.domain.centroid, sim.q, sim.r)
+                for velocity in self.routing:
+                    velocity.route(sim.t, density, exits)
         with self.timers("step"):
             if self.sources is not None:
                 q_in, r_in, population = self.sources(sim.t, sim.tau, sim.q, sim.r)
@@ -189,7 +197,8 @@ class MicroModel:
         sim, last = self.sim, self.last
         pressure = last.pressure if last is not None else np.zeros(sim.count)
         return {**sim.state(), "pressure": pressure, "exits_time": self.exits_time, "population": self.population,
-                **parts(evacuation=self.evacuation, sources=self.sources, measure=self.measurements),
+                **parts(evacuation=self.evacuation, sources=self.sources, measure=self.measurements,
+                        **{f"route{k}": v for k, v in enumerate(self.routing)}),
                 **({} if self.trajectories is None else {"trajectory_frame": self.trajectories.frame})}
 
     def restore(self, data: dict) -> None:
@@ -201,7 +210,8 @@ class MicroModel:
             self.exits, self.exits_time = exits, float(data["exits_time"])
         sim.restore(data)
         self.desired.population = self.population = data["population"].copy()
-        restore_parts(data, evacuation=self.evacuation, sources=self.sources, measure=self.measurements)
+        restore_parts(data, evacuation=self.evacuation, sources=self.sources, measure=self.measurements,
+                      **{f"route{k}": v for k, v in enumerate(self.routing)})
         self.resumed_frame = int(data["trajectory_frame"]) if "trajectory_frame" in data else None
         self.last = SimpleNamespace(q=sim.q, r=sim.r, u=sim.u, pressure=data["pressure"].copy())
 

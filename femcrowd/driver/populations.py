@@ -15,7 +15,7 @@ import numpy as np
 from ..case import Case, Expression
 from ..errors import InputError
 from ..macro.speed_law import SpeedLaw
-from ..macro.velocity import ExitsVelocity, FieldVelocity
+from ..macro.velocity import CongestionVelocity, ExitsVelocity, FieldVelocity
 from ..mesh import Boundary, Domain
 
 #: the one population of a case without [populations]
@@ -34,10 +34,11 @@ class Population:
 
 
 def desired_velocity(case: Case, domain: Domain, boundary: Boundary, spec=None, key=None,
-                     targets=None) -> FieldVelocity | ExitsVelocity:
+                     targets=None) -> FieldVelocity | ExitsVelocity | CongestionVelocity:
     """The [velocity] of the case (or `spec`, a population's velocity table, its keys named by key(name));
     for type "exits" (towards the exits `targets`, default all) the distance field of the exits open at
-    t = 0 is computed here (set-up), those of other door states when they first occur."""
+    t = 0 is computed here (set-up), those of other door states when they first occur; with route =
+    "congestion" the potential is solved at the first step, from the density then."""
     spec = case["velocity"] if spec is None else spec
     key = key or (lambda name: f"velocity.{name}")
     if spec["type"] == "field":
@@ -56,6 +57,9 @@ def desired_velocity(case: Case, domain: Domain, boundary: Boundary, spec=None, 
         raise InputError(case.file, key("speed"), spec["speed"],
                          f"is negative ({values.min():.3g}) somewhere: people would walk away from the exits "
                          "(for such a scene give U itself: type = 'field')")
+    if case["velocity"]["route"] == "congestion":
+        law = SpeedLaw(spec["speed_law"], case["model"]["rho_max"], spec["push"])
+        return CongestionVelocity(domain, speed, targets, law, case["velocity"]["route_every"])
     velocity = ExitsVelocity(domain, speed, targets)
     velocity.cells(boundary.at(0.0))
     return velocity

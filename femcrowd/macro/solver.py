@@ -28,6 +28,7 @@ from .reconstruction import actual_velocity
 from .state import MacroState
 from .transport import TRANSPORTS
 from .transport.lwr import LWRTransport, joint_max_dt
+from .velocity import CongestionVelocity
 
 
 @dataclass
@@ -54,6 +55,7 @@ class MacroSolver:
         """velocities: the desired velocity U0 of each population (femcrowd.macro.velocity); laws: the
         speed law of each population (femcrowd.macro.speed_law.SpeedLaw, None or "constant": f = 1)."""
         self.domain, self.boundary, self.velocities = domain, boundary, list(velocities)
+        self.routing = [v for v in self.velocities if isinstance(v, CongestionVelocity)]
         self.laws = [None if law is None or law.constant else law for law in (laws or [None] * len(self.velocities))]
         #: False when every population has f(1) = 0: the density stays <= 1 without the projection
         self.needs_projection = any(law is None or law.saturates for law in self.laws)
@@ -64,19 +66,19 @@ class MacroSolver:
         self.before_step, self.after_step = [], []
         self.timers = Timer()
         self._projections = {}    # per set of open exits: (Projection, outflow matrix of the pressure flux)
-        self._transports = None   # (exits, t, one transport per population)
+        self._transports = None   # (exits, the velocities' versions, one transport per population)
         self._open = None         # the open exits of the last projection (a door that changed: no warm start)
 
     def transports(self, state: MacroState, exits) -> list:
         """The transport of each population at the state's time, on these exits."""
-        steady = all(v.steady for v in self.velocities)
+        versions = tuple(v.version(state, exits) for v in self.velocities)
         built = self._transports
-        if built is None or built[0] is not exits or (not steady and built[1] != state.t):
+        if built is None or built[0] is not exits or built[1] != versions:
             schemes = [LWRTransport(self.domain, exits, v.normal_on_facets(state, exits), law) if law is not None
                        else self.transport_class(self.domain, exits, v.normal_on_facets(state, exits),
                                                  v.potential(exits))
                        for v, law in zip(self.velocities, self.laws)]
-            self._transports = built = (exits, state.t, schemes)
+            self._transports = built = (exits, versions, schemes)
         return built[2]
 
     def projection(self, exits) -> Projection:
@@ -110,6 +112,10 @@ class MacroSolver:
         """Advance the state by one step, not beyond time ``until`` (a shorter step lands on it: the controller
         passes the frame times and the door changes); return its MacroStep."""
         clock = Stopwatch()
+        if self.routing:
+            with self.timers("route"):   # the route choice, re-solved when it is due
+                for velocity in self.routing:
+                    velocity.route(state.t, state.density, self.boundary.at(state.t))
         with self.timers("transport"):   # with the step's set-up and the hooks before it
             exits = self.boundary.at(state.t)
             schemes = self.transports(state, exits)

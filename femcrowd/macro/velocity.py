@@ -6,10 +6,12 @@ for a speed that depends on it) and the exits open at that time:
 - ``normal_on_facets(state, exits)``: (2, F) U . n on each facet seen from f2t[0] and from
   f2t[1] (n oriented f2t[0] -> f2t[1]), what the transport needs;
 - ``at_points(xy, t, exits)``: (m, 2) at points, for the discs of the micro model;
-- ``steady``: True when U changes only with the open exits (the transport is then built once
-  per set of open exits);
 - ``potential(exits)``: a cell field that decreases downstream, or None (it orders the solves of
   the implicit transport).
+
+- ``version(state, exits)``: what U depends on beyond the open exits (None: nothing; the time for a
+  field that depends on t; the count of route solves for the route choice): the transport is rebuilt
+  when it changes.
 
 Two kinds, chosen by ``[velocity].type``:
 
@@ -22,11 +24,19 @@ Two kinds, chosen by ``[velocity].type``:
   (flux splitting, see transport/upwind.py). Where
   d is infinite (no path to any exit) or grad d vanishes, U = 0: people who cannot reach an
   exit stay where they are (but are still pushed by the pressure if their region is saturated).
+
+With ``[velocity] route = "congestion"`` the distance becomes Hughes' potential (Hughes 2002):
+:class:`CongestionVelocity`, re-solved every ``route_every`` seconds and at every door change.
 """
+
+import json
 
 import numpy as np
 
-from ..mesh.distance import exit_distance
+from ..mesh.distance import Eikonal
+
+#: the least f(rho) the route choice counts: a jam costs at most 1 / ROUTE_FLOOR times the free walk
+ROUTE_FLOOR = 0.05
 
 
 class FieldVelocity:
@@ -42,6 +52,9 @@ class FieldVelocity:
     def potential(self, exits=None):
         return None
 
+    def version(self, state, exits=None):
+        return None if self.steady else state.t
+
     def normal_on_facets(self, state, exits=None) -> np.ndarray:
         """(2, F): U(m_e) . n_e, the same seen from both cells of the facet."""
         a = np.einsum("ij,ij->i", self.at_points(self.domain.midpoint, state.t), self.domain.normal)
@@ -52,30 +65,36 @@ class ExitsVelocity:
     """U = -speed grad d/|grad d| from the distance d to the open exits (one field per set of open exits);
     ``targets``: the names of the exits this population heads for (None: all exits)."""
 
-    steady = True
-
     def __init__(self, domain, speed, targets=None):
         self.domain = domain
         self.speed = speed(domain.centroid[:, 0], domain.centroid[:, 1], 0.0)
         self.targets = None if targets is None else frozenset(targets)
+        self.eikonal = Eikonal(domain.points, domain.triangles)
+        self.cost = None    # per cell: None, the geodesic distance (CongestionVelocity sets it)
         self._cells = {}  # per set of open target exits
         self.distance = {}
+
+    def version(self, state, exits):
+        return None
 
     def cells(self, exits) -> np.ndarray:
         """U per cell for these open exits (the distance field is computed on first use)."""
         heading = self._heading(exits)
         if heading not in self._cells:
-            d = self.distance[heading] = exit_distance(self.domain.points, self.domain.triangles,
-                                                       self._edges(exits, heading))
+            d = self.distance[heading] = self.eikonal.solve(self._edges(exits, heading), self.cost)
             grad = _p1_gradient(self.domain, d)
             if len(heading) > 1:
                 self._on_ridges(exits, heading, grad)
-            norm = np.hypot(grad[:, 0], grad[:, 1])
-            ok = np.isfinite(norm) & (norm > 0)
-            cells = np.zeros((self.domain.ncells, 2))
-            cells[ok] = -(self.speed[ok] / norm[ok])[:, None] * grad[ok]
-            self._cells[heading] = cells
+            self._cells[heading] = self._down(grad)
         return self._cells[heading]
+
+    def _down(self, grad) -> np.ndarray:
+        """U = -speed grad / |grad| per cell (0 where the gradient is 0 or not finite)."""
+        norm = np.hypot(grad[:, 0], grad[:, 1])
+        ok = np.isfinite(norm) & (norm > 0)
+        cells = np.zeros((self.domain.ncells, 2))
+        cells[ok] = -(self.speed[ok] / norm[ok])[:, None] * grad[ok]
+        return cells
 
     def _on_ridges(self, exits, heading, grad):
         """On the ridges of d between two exits (cells whose nodes are nearest to different exits), the
@@ -85,7 +104,7 @@ class ExitsVelocity:
         two doors share it, and across it back and forth; a thin layer of crowd would stay there for good.
         People on a watershed pick one of the exits: the one nearest to the cell (mean of its nodes)."""
         t = self.domain.triangles
-        each = np.stack([exit_distance(self.domain.points, t, self._edges(exits, (name,))) for name in heading])
+        each = np.stack([self.eikonal.solve(self._edges(exits, (name,)), self.cost) for name in heading])
         nearest = np.argmin(each, axis=0)[t]   # the nearest exit of each node of each cell
         ridge = np.flatnonzero((nearest != nearest[:, :1]).any(axis=1))
         with np.errstate(invalid="ignore"):
@@ -122,6 +141,136 @@ class ExitsVelocity:
         k0, k1 = self.domain.f2t
         n, cells = self.domain.normal, self.cells(exits)
         return np.stack([np.einsum("ij,ij->i", cells[k], n) for k in (k0, np.where(k1 >= 0, k1, k0))])
+
+
+class CongestionVelocity(ExitsVelocity):
+    """Route choice that sees the crowd. For each open exit e the population heads for:
+
+    - the walking time T_e = phi_e / speed, phi_e solving |grad phi_e| = 1 / max(f(rho), ROUTE_FLOOR), phi_e = 0
+      on e (Hughes 2002), rho the total density, f the population's speed law (Hughes' linear 1 - rho when the
+      speed is constant);
+    - at a door with a capacity c_e, the wait W_e = (the crowd heading for e and nearer to it) / (c_e |D_e|):
+      the queue ahead divided by what the door lets through (the variant of docs/model.md, "Route choice").
+
+    Each cell heads for the exit of least max(T_e, W_e) (one cannot pass a door before walking there, nor before
+    those ahead have passed it), along -grad phi_e. The routes are re-solved every ``route_every`` seconds of
+    simulated time and at every door change. At rho = 0 phi_e is the distance of :class:`ExitsVelocity`."""
+
+    def __init__(self, domain, speed, targets, law, route_every: float):
+        super().__init__(domain, speed, targets)
+        self.f = law if not law.constant else (lambda rho: 1.0 - np.clip(rho, 0.0, 1.0))
+        self.route_every = float(route_every)
+        self.mass = np.zeros(domain.ncells)   # the crowd per cell at the last route
+        self.choice = {}                      # per heading: the exit each cell heads for (index into the heading)
+        self.routes = 0                       # route solves so far
+        self.routed = (-np.inf, None)         # time and open exits of the last one
+
+    def route(self, t: float, density: np.ndarray, exits) -> bool:
+        """Re-solve the routes for the total density per cell at time t if it is due (route_every elapsed, or the
+        doors changed); whether it was."""
+        if not self.due(t, exits):
+            return False
+        cost = 1.0 / np.maximum(self.f(density), ROUTE_FLOOR)
+        self.cost = None if np.all(cost == 1.0) else cost
+        self.mass = density * self.domain.area
+        self._cells.clear()
+        self.distance.clear()
+        self.routes += 1
+        self.routed = (t, exits.open)
+        self.cells(exits)
+        return True
+
+    def due(self, t: float, exits) -> bool:
+        """Are the routes to be re-solved at time t: route_every elapsed since the last solve, or the doors changed?"""
+        last, opened = self.routed
+        return exits.open != opened or t >= last + self.route_every * (1 - 1e-9)
+
+    def version(self, state, exits):
+        self.route(state.t, state.density, exits)
+        return self.routes
+
+    def cells(self, exits) -> np.ndarray:
+        """U per cell: towards the exit of least max(T_e, W_e), along -grad phi_e."""
+        heading = self._heading(exits)
+        if heading in self._cells:
+            return self._cells[heading]
+        cells = np.arange(self.domain.ncells)
+        if not heading:   # no exit open: nobody walks (the pressure still pushes)
+            self.choice[heading], self.distance[heading] = np.zeros(len(cells), int), np.full(len(cells), np.inf)
+            self._cells[heading] = np.zeros((len(cells), 2))
+            return self._cells[heading]
+        phi = np.stack([self.eikonal.solve(self._edges(exits, (name,)), self.cost) for name in heading])
+        on_cells = phi[:, self.domain.triangles].mean(axis=2)                    # (exits, cells)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            walk = np.where(self.speed > 0, on_cells / self.speed, np.inf)
+        previous = self.choice.get(heading, np.argmin(on_cells, axis=0))
+        time = np.maximum(walk, self._waits(exits, heading, phi, previous))
+        # the least time; between times equal but for round-off, the nearer exit; between those, the exit of before
+        walk = np.where(time <= time.min(axis=0) * (1 + 1e-9), walk, np.inf)
+        nearest = walk <= walk.min(axis=0) * (1 + 1e-9)
+        choice = np.where(nearest[previous, cells], previous, np.argmin(walk, axis=0))
+        grad = np.empty((len(cells), 2))
+        for e in np.unique(choice):
+            grad[choice == e] = _p1_gradient(self.domain, phi[e], choice == e)
+        self.choice[heading] = choice
+        self.distance[heading] = on_cells[choice, cells]
+        self._cells[heading] = self._down(grad)
+        return self._cells[heading]
+
+    def _waits(self, exits, heading, phi, previous) -> np.ndarray:
+        """W_e per cell: the crowd that headed for e at the last route and is nearer to e (smaller phi_e, the cell's
+        own crowd left out), over what the door lets through; 0 at doors without a capacity. phi: (exits, nodes);
+        previous: the exit each cell headed for."""
+        on_cells = phi[:, self.domain.triangles]                       # (exits, cells, 3)
+        waits = np.zeros(on_cells.shape[:2])
+        for e, name in enumerate(heading):
+            door = exits.doors[name]
+            if door.capped:
+                queued = np.where(previous == e, self.mass, 0.0)
+                level, low, high = on_cells[e].mean(axis=1), on_cells[e].min(axis=1), on_cells[e].max(axis=1)
+                own = queued * np.clip((level - low) / np.maximum(high - low, 1e-300), 0.0, 1.0)
+                waits[e] = (_mass_below(level, low, high, queued) - own) / (door.capacity * door.width)
+        return waits
+
+    def snapshot(self) -> dict:
+        """The routes in use (a checkpoint): a resumed run heads the same way and re-solves at the same times."""
+        last, opened = self.routed
+        heading = next(iter(self._cells), ())
+        return {"t": last, "open": json.dumps(opened), "routes": self.routes, "mass": self.mass,
+                "cost": np.ones(0) if self.cost is None else self.cost, "heading": json.dumps(heading),
+                **({} if not heading else {"cells": self._cells[heading], "choice": self.choice[heading],
+                                           "distance": self.distance[heading]})}
+
+    def restore(self, data: dict) -> None:
+        opened, heading = json.loads(str(data["open"])), tuple(json.loads(str(data["heading"])))
+        self.routed = (float(data["t"]), None if opened is None else tuple(opened))
+        self.routes, self.mass = int(data["routes"]), data["mass"].copy()
+        self.cost = data["cost"].copy() if len(data["cost"]) else None
+        self._cells.clear()
+        self.distance.clear()
+        if heading:
+            self._cells[heading], self.choice[heading] = data["cells"].copy(), data["choice"].copy()
+            self.distance[heading] = data["distance"].copy()
+
+    def potential(self, exits) -> np.ndarray:
+        """phi of the exit each cell heads for (cells cut off from every exit last)."""
+        self.cells(exits)
+        d = self.distance[self._heading(exits)]
+        return np.where(np.isfinite(d), d, -1.0)
+
+
+def _mass_below(levels, low, high, mass) -> np.ndarray:
+    """At each level s: the mass of the cells below it, each cell's mass spread evenly over its span [low, high]
+    of phi (sum_k m_k clip((s - low_k) / (high_k - low_k), 0, 1)): continuous in s, so cells at the same
+    level in exact arithmetic see the same mass ahead whatever the round-off of phi."""
+    finite = np.isfinite(low) & np.isfinite(high) & (mass > 0)
+    low, high, mass = low[finite], high[finite], mass[finite]
+    width = np.maximum(high - low, 1e-6 * float(high.max(initial=1.0)))   # a level set of cells: a steep ramp
+    at = np.concatenate([low, low + width])
+    slope = np.concatenate([mass / width, -mass / width])[np.argsort(at, kind="stable")]
+    at = np.sort(at, kind="stable")
+    below = np.concatenate([[0.0], np.cumsum(np.cumsum(slope)[:-1] * np.diff(at))])
+    return np.interp(levels, at, below, left=0.0, right=float(mass.sum())) if len(at) else np.zeros(len(levels))
 
 
 def _p1_gradient(domain, d, cells=slice(None)):

@@ -57,6 +57,7 @@ class Doors:
         self.domain = domain
         exits = [door for door in doors if door.exit]
         self.names = [door.name for door in exits]
+        self.doors = {door.name: door for door in exits}
         self.open = tuple(name for name in self.names if name in set(open_names))
         self.group = np.full(len(domain.length), -1)
         for g, door in reversed(list(enumerate(exits))):

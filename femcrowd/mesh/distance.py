@@ -50,41 +50,63 @@ REL_TOL = 1e-6
 BAND = 3.0
 
 
-def exit_distance(points, triangles, exit_edges) -> np.ndarray:
+def exit_distance(points, triangles, exit_edges, cost=None) -> np.ndarray:
     """Shortest-path length inside the triangulated domain from every mesh node to the nearest exit.
-    points (N, 2) float, triangles (M, 3) int, exit_edges (E, 2) int node pairs of the boundary edges that are exits.
-    Returns (N,) float; np.inf at nodes with no path to any exit (regions cut off from every exit)."""
-    p = np.asarray(points, dtype=float)
-    t = np.asarray(triangles, dtype=np.int64)
-    exits = np.asarray(exit_edges, dtype=np.int64)
-    if t.size == 0:
-        t = t.reshape(0, 3)
-    if exits.size == 0:
-        exits = exits.reshape(0, 2)
-    if p.ndim != 2 or p.shape[1] != 2:
-        raise ValueError(f"points must have shape (N, 2), got {p.shape}")
-    if t.ndim != 2 or t.shape[1] != 3:
-        raise ValueError(f"triangles must have shape (M, 3), got {t.shape}")
-    if exits.ndim != 2 or exits.shape[1] != 2:
-        raise ValueError(f"exit_edges must have shape (E, 2), got {exits.shape}")
-    n = len(p)
-    for name, nodes in (("triangles", t), ("exit_edges", exits)):
-        if nodes.size and (nodes.min() < 0 or nodes.max() >= n):
-            raise ValueError(f"{name} refer to nodes outside 0..{n - 1}")
-    if not np.isfinite(p).all():
-        raise ValueError("points contain NaN or inf")
+    points (N, 2) float, triangles (M, 3) int, exit_edges (E, 2) int node pairs of the boundary edges that are exits;
+    cost: optional (M,) cost per unit length of each triangle (> 0; default 1, the geodesic distance).
+    Returns (N,) float; np.inf at nodes with no path to any exit (regions cut off from every exit).
+    Several solves on one mesh: :class:`Eikonal` keeps the mesh's stencils."""
+    return Eikonal(points, triangles).solve(exit_edges, cost)
 
-    d = np.full(n, np.inf)
-    if len(exits) == 0:
-        return d
-    exit_nodes = np.unique(exits)
-    d[exit_nodes] = 0.0
-    if len(t) == 0:
-        return d
 
-    d = _seed_values(p, t, d, exit_nodes, exits[exits[:, 0] != exits[:, 1]])
-    corners = _Corners(p, t)
-    return _fim(corners, d)
+class Eikonal:
+    """|grad phi| = cost on a triangulated domain, phi = 0 on exit edges: the stencils of the mesh (corner
+    geometry, corners grouped by node) built once, solved for any exits and cost per triangle (Hughes 2002:
+    cost 1 / f(rho) gives the route choice of a crowd that sees congestion)."""
+
+    def __init__(self, points, triangles):
+        p = np.asarray(points, dtype=float)
+        t = np.asarray(triangles, dtype=np.int64)
+        if t.size == 0:
+            t = t.reshape(0, 3)
+        if p.ndim != 2 or p.shape[1] != 2:
+            raise ValueError(f"points must have shape (N, 2), got {p.shape}")
+        if t.ndim != 2 or t.shape[1] != 3:
+            raise ValueError(f"triangles must have shape (M, 3), got {t.shape}")
+        if t.size and (t.min() < 0 or t.max() >= len(p)):
+            raise ValueError(f"triangles refer to nodes outside 0..{len(p) - 1}")
+        if not np.isfinite(p).all():
+            raise ValueError("points contain NaN or inf")
+        self.points, self.triangles = p, t
+        self._corners = None
+
+    def solve(self, exit_edges, cost=None) -> np.ndarray:
+        """phi at the nodes (np.inf where no exit can be reached) for these exit edges (E, 2) and the cost per
+        triangle (M,) (None: 1 everywhere, the geodesic distance)."""
+        p, t = self.points, self.triangles
+        exits = np.asarray(exit_edges, dtype=np.int64)
+        if exits.size == 0:
+            exits = exits.reshape(0, 2)
+        if exits.ndim != 2 or exits.shape[1] != 2:
+            raise ValueError(f"exit_edges must have shape (E, 2), got {exits.shape}")
+        n = len(p)
+        if exits.size and (exits.min() < 0 or exits.max() >= n):
+            raise ValueError(f"exit_edges refer to nodes outside 0..{n - 1}")
+        if cost is not None:
+            cost = np.asarray(cost, dtype=float)
+            if cost.shape != (len(t),) or not (cost > 0).all():
+                raise ValueError(f"cost must be positive with one value per triangle ({len(t)})")
+        d = np.full(n, np.inf)
+        if len(exits) == 0:
+            return d
+        exit_nodes = np.unique(exits)
+        d[exit_nodes] = 0.0
+        if len(t) == 0:
+            return d
+        d = _seed_values(p, t, d, exit_nodes, exits[exits[:, 0] != exits[:, 1]], cost)
+        if self._corners is None:
+            self._corners = _Corners(p, t)
+        return _fim(self._corners, d, None if cost is None else np.repeat(cost, 3))
 
 
 class _Corners:
@@ -129,9 +151,18 @@ class _Corners:
         base = c - c % 3
         return np.concatenate([base + (c + 1) % 3, base + (c + 2) % 3])
 
-    def update(self, d, corners):
-        """Value that the corners give to their node C from d at A and B (the P1 Hopf-Lax formula)."""
+    def update(self, d, corners, slowness=None):
+        """Value that the corners give to their node C from d at A and B: the P1 Hopf-Lax formula, for a cost
+        per unit length `slowness` per corner (None: 1). phi / s solves the unit equation in a triangle of cost
+        s, and the formula is positively homogeneous: the value is s times the unit one of dA / s, dB / s."""
         dA, dB = d[self.A[corners]], d[self.B[corners]]
+        if slowness is None:
+            return self.C[corners], self._unit(dA, dB, corners)
+        s = slowness[corners]
+        return self.C[corners], s * self._unit(dA / s, dB / s, corners)
+
+    def _unit(self, dA, dB, corners):
+        """The unit-cost Hopf-Lax value at the corners' nodes C from the values dA, dB at A and B."""
         best = np.minimum(dA + self.ca[corners], dB + self.cb[corners])  # through an end point
         with np.errstate(invalid="ignore", divide="ignore"):
             iL = self.iL[corners]
@@ -143,7 +174,7 @@ class _Corners:
             s = (self.wpar[corners] - c * wperp / sine) * iL  # where the ray crosses AB, in [0, 1]
             ok &= (s > 0) & (s < 1)
             inner = dA + s * du + wperp / sine
-        return self.C[corners], np.where(ok, np.minimum(best, inner), best)
+        return np.where(ok, np.minimum(best, inner), best)
 
 
 def _ranges(ptr, indices, nodes):
@@ -152,7 +183,7 @@ def _ranges(ptr, indices, nodes):
     return indices[start + np.arange(len(start))]
 
 
-def _fim(corners, d):
+def _fim(corners, d, slowness=None):
     """Fast Iterative Method. Active nodes are relaxed together (Jacobi) until they stop
     decreasing; a node that has converged wakes the neighbours that it would improve.
 
@@ -174,7 +205,7 @@ def _fim(corners, d):
     done = np.flatnonzero(np.isfinite(d))  # the seeds act as converged nodes
     while len(done) or len(active):
         if len(done):
-            target, value = corners.update(d, corners.readers(done))
+            target, value = corners.update(d, corners.readers(done), slowness)
             better = value < d[target] - tol
             target, value = target[better], value[better]
             np.minimum.at(d, target, value)
@@ -188,7 +219,7 @@ def _fim(corners, d):
         d_active = d[active]
         near = d_active <= d_active.min() + band
         relaxed, waiting, before = active[near], active[~near], d_active[near]
-        target, value = corners.update(d, corners.owned(relaxed))
+        target, value = corners.update(d, corners.owned(relaxed), slowness)
         np.minimum.at(d, target, value)
         converged = d[relaxed] >= before - tol
         done = relaxed[converged]
@@ -196,7 +227,7 @@ def _fim(corners, d):
     return d
 
 
-def _seed_values(p, t, d, exit_nodes, exits):
+def _seed_values(p, t, d, exit_nodes, exits, cost=None):
     """Straight-line distance to the exit segments at the nodes of the triangles around each exit
     node (d is 0 at the exit nodes already). Returns the updated d (upper bounds; the iteration
     may lower them).
@@ -204,20 +235,26 @@ def _seed_values(p, t, d, exit_nodes, exits):
     A node w of a triangle at exit node s gets |w - s| (that segment lies in the triangle) and,
     for every exit edge (a, b) at s, its distance to that segment if w lies on a side of the line
     (a, b) where a triangle holding the edge lies, or on the line: near s, the region outside the
-    domain is then a cone on the other side of that line, so the straight path is inside.
+    domain is then a cone on the other side of that line, so the straight path is inside. With a cost
+    per triangle, each length is weighed by the cost of the triangle it was found in.
     """
     n = len(p)
     is_exit = np.zeros(n, dtype=bool)
     is_exit[exit_nodes] = True
-    around = t[is_exit[t].any(axis=1)]
+    rows_around = np.flatnonzero(is_exit[t].any(axis=1))
+    around = t[rows_around]
     if len(around) == 0:
         return d
 
+    def weighed(length, rows):
+        return length if cost is None else length * cost[rows_around[rows]]
+
     for k in range(3):  # point candidates
-        s = around[:, k][is_exit[around[:, k]]]
+        at_exit = np.flatnonzero(is_exit[around[:, k]])
+        s = around[at_exit, k]
         for j in (1, 2):
-            w = around[:, (k + j) % 3][is_exit[around[:, k]]]
-            np.minimum.at(d, w, np.hypot(*(p[w] - p[s]).T))
+            w = around[at_exit, (k + j) % 3]
+            np.minimum.at(d, w, weighed(np.hypot(*(p[w] - p[s]).T), at_exit))
     if len(exits) == 0:
         return d
 
@@ -235,7 +272,7 @@ def _seed_values(p, t, d, exit_nodes, exits):
                 w = around[rows, i]
                 side = _cross(B - A, p[w] - A)
                 good = (side == 0) | ((side > 0) & side_pos[e]) | ((side < 0) & side_neg[e])
-                np.minimum.at(d, w[good], _seg_dist(p[w[good]], A[good], B[good]))
+                np.minimum.at(d, w[good], weighed(_seg_dist(p[w[good]], A[good], B[good]), rows[good]))
     return d
 
 

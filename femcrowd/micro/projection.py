@@ -511,7 +511,8 @@ def _ipm(constraints: Constraints, U, d, lam0, atol, max_iter, newton, gap_tol):
         mu = float(lam @ s) / m
         primal = 0.5 * float(np.sum((v - U) ** 2))
         dual = float(lam @ BU_d) - 0.5 * float(np.sum(BTlam ** 2))
-        gap = 0.0 if primal - dual <= floor else (primal - dual) / max(primal, floor)
+        # (a tiny positive floor when U = 0: discs that stand still, a closed door, overlaps to undo)
+        gap = 0.0 if primal - dual <= floor else (primal - dual) / max(primal, floor, np.finfo(float).tiny)
         feasible = float((Bv - d).max()) <= feasible_tol
         try:
             newton.factor(lam / s)

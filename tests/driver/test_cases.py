@@ -9,6 +9,7 @@ import pytest
 import pyvista
 
 from femcrowd import load_case, run
+from femcrowd.mesh.distance import Eikonal
 
 from ..support import CASES, assert_time_accounted
 
@@ -82,12 +83,10 @@ def test_only_the_fields_asked_for_are_written(tmp_path):
 
 def test_field_velocity_scene_computes_no_distance(monkeypatch, tmp_path):
     """'Leave out what a scene does not need': U given -> no distance field."""
-    import femcrowd.macro.velocity
-
     def forbidden(*args):
         raise AssertionError("distance computed for a field velocity")
 
-    monkeypatch.setattr(femcrowd.macro.velocity, "exit_distance", forbidden)
+    monkeypatch.setattr(Eikonal, "solve", forbidden)
     run_macro(load_case(CASES / "saturated-exit", ["time.end=0.05"]), tmp_path)
 
 

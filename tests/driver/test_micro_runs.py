@@ -97,3 +97,12 @@ def test_compare_reads_the_empty_disc_frames_of_a_finished_micro_run(tmp_path):
     assert rows[0]["micro_inside"] > 0 and rows[-1]["micro_inside"] == 0   # all out before t = 6
     assert rows[-1]["macro_inside"] == pytest.approx(0.0, abs=1e-6)
     assert (tmp_path / "comparison.csv").is_file()
+
+
+def test_discs_behind_a_door_that_closes_stand_still(tmp_path):
+    """cases/narrow-door-micro with its exit closed at 6 s: the discs left inside stay (U = 0, the projection
+    with nothing to do but undo round-off overlaps), the run completes and every disc is counted."""
+    case = load_case(CASES / "narrow-door-micro", ["boundary.open={exit=[[0, 6]]}", "time.end=8"])
+    summary = run_micro(case, tmp_path)
+    assert summary["status"] == "completed" and summary["final_count"] > 0
+    assert summary["initial_count"] == summary["final_count"] + summary["evacuated"]

@@ -135,13 +135,16 @@ def test_a_checkpoint_of_another_case_or_mesh_is_refused(tmp_path):
     assert snapshot(out) == before
 
 
-@pytest.mark.parametrize("model", ["macro", "micro"])
-def test_arrivals_doors_and_measurements_resume(tmp_path, model):
+@pytest.mark.parametrize("model, route", [("macro", "shortest"), ("micro", "shortest"), ("macro", "congestion"),
+                                          ("micro", "congestion")])
+def test_arrivals_doors_and_measurements_resume(tmp_path, model, route):
     """cases/entrance (a source, a door schedule, lines and an area): stopped at 12 s (door closed), then
-    continued to 20 s, it gives the uninterrupted run's history, measurements (and disc trajectories)."""
+    continued to 20 s, it gives the uninterrupted run's history, measurements (and disc trajectories); with the
+    route choice too (its routes, re-solved every 0.7 s, in the checkpoint)."""
     whole, part = tmp_path / "whole", tmp_path / "part"
     case = CASES / "entrance"
-    common = ["-q", "--set", f'model.type="{model}"']
+    common = ["-q", "--set", f'model.type="{model}"', "--set", f'velocity.route="{route}"',
+              "--set", "velocity.route_every=0.7"]
     assert invoke("run", case, "--out", whole, "--set", "time.end=20", *common).exit_code == 0
     assert invoke("run", case, "--out", part, "--set", "time.end=12", *common).exit_code == 0
     assert invoke("run", case, "--out", part, "--set", "time.end=20", "--resume", *common).exit_code == 0
