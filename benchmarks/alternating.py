@@ -31,7 +31,7 @@ def timed_steps(model, steps: int, warm: int = 3):
     the steps' infos)."""
     for _ in range(warm):
         model.step(math.inf)
-    before = dict(model.solver.timers)
+    before = dict(model.solver.timers.items())
     durations, infos = [], []
     for _ in range(steps):
         tic = time.perf_counter()

@@ -49,15 +49,16 @@ AREA = 300.0
 DENSITY = "where((x - 20)**2 + (y - 7.5)**2 < 49, 1.0, 0.85 * (x > 3))"
 
 
-def mesh_file(target):
-    """The cached gmsh mesh with about `target` triangles (made on first use)."""
+def mesh_file(target, plan_text=HALL, name="hall"):
+    """The cached gmsh mesh of the 20 m x 15 m plan `plan_text` (its cell size a field {size}) with about `target`
+    triangles (made on first use)."""
     from femcrowd.mesh.floorplan import build_mesh
 
-    path = CACHE / f"hall_{int(target)}.msh"
+    path = CACHE / f"{name}_{int(target)}.msh"
     if not path.exists():
         CACHE.mkdir(exist_ok=True)
         plan = path.with_suffix(".toml")
-        plan.write_text(HALL.format(size=math.sqrt(2.31 * AREA / target)))  # ~1.14 target triangles
+        plan.write_text(plan_text.format(size=math.sqrt(2.31 * AREA / target)))  # ~1.14 target triangles
         build_mesh(plan, path)
     return path
 
@@ -103,7 +104,7 @@ def one_size(target, steps, capacity=None):
     mass0, worst = domain.area @ state.density, {"mass_error": 0.0, "max_density": 0.0, "min_density": 1.0,
                                                  "min_phi": 0.0}
     for k in range(steps):
-        before, timers = state.density.copy(), dict(solver.timers)
+        before, timers = state.density.copy(), dict(solver.timers.items())
         tic = time.perf_counter()
         result = solver.step(state)
         step = time.perf_counter() - tic

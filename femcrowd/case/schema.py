@@ -92,9 +92,10 @@ SCHEMA = {
         "speed_law": Key("constant", "law", SPEED_LAW_DOC),
         "push": Key(0.0, "number", PUSH_DOC, low=0, high=1),
         "route": Key("shortest", "choice", '"shortest": U along the shortest path to the nearest open exit; '
-                     '"congestion": the route sees the crowd (Hughes 2002), the cost of a path 1 / f(rho) per '
-                     'metre (f the speed law, or 1 - rho with a constant speed), for type exits',
-                     ("shortest", "congestion")),
+                     '"congestion": the route sees the crowd: each place heads for the exit of least time, the '
+                     'walk (Hughes 2002: a path costs 1 / f(rho) per metre, f the speed law, or 1 - rho with a '
+                     'constant speed) or the wait behind the queue at a door with a capacity (docs/model.md, '
+                     '"Route choice"); for type exits', ("shortest", "congestion")),
         "route_every": Key(1.0, "number", 'with route = "congestion": the routes are re-solved every route_every '
                            "seconds of simulated time and at every door change", low=0, low_open=True),
     },

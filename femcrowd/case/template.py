@@ -62,6 +62,7 @@ def _case_lines(case_dir, mesh_file, domain) -> list:
                     (f'speed = {_default("velocity", "speed")}', "m/s: number or expression in x, y"),
                     ('# speed_law = "weidmann"', "slower in a dense crowd (rho_max in persons/m^2)"),
                     ("# push = 0.2", "with a speed law: a jam still pushes at push x speed"),
+                    ('# route = "congestion"', "each place heads for the exit of least time: walk or queue"),
                     ('# type = "field"', "or U given by expressions in x, y, t:"), '# ux = "-1"', '# uy = "0"']
     else:
         velocity = [('type = "field"', "the mesh has no exit: U given by expressions in x, y, t"),

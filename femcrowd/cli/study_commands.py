@@ -134,24 +134,26 @@ def stress(out, only, cases, force, checks):
 @click.option("--only", multiple=True, metavar="TEST", help="Run only this RiMEA test, by number (repeatable).")
 @click.option("--model", "models", multiple=True,
               type=click.Choice(["macro", "macro-capacity", "macro-pushing", "macro-recommended", "micro",
-                                 "micro-recommended"]),
+                                 "micro-recommended", "macro-routes", "micro-routes"]),
               help="Run only this model and setting (repeatable; default: all). macro, micro: the paper's; "
                    "-capacity: a capacity of 1.9 persons/(m s) on every door; -pushing: Weidmann's law with "
-                   "push 0.2; -recommended: the settings of docs/validation.md.")
+                   "push 0.2; -recommended: the settings of docs/validation.md; -routes: the recommended ones with "
+                   "the route choice velocity.route = \"congestion\" (tests 10 and 11 only).")
 def rimea(out, only, models):
     """Run the RiMEA verification tests of cases/rimea with both models and print the table.
 
     Tests 1 (corridor), 4 (fundamental diagram), 6 (corner), 9 (four doors,
-    then two), 11 (exit choice) and 12 (bottlenecks) of the RiMEA guideline,
-    as docs/rimea.md describes them: the criterion as RiMEA states it, each
-    model and setting's result, pass or fail. A failed verdict is a result
-    (the docs say where a model cannot meet a criterion, and why), not an
-    error.
+    then two), 10 (assigned exits), 11 (exit choice) and 12 (bottlenecks) of
+    the RiMEA guideline, as docs/rimea.md describes them: the criterion as
+    RiMEA states it, each model and setting's result, pass or fail. A failed
+    verdict is a result (the docs say where a model cannot meet a criterion,
+    and why), not an error.
 
     \b
     Examples:
       femcrowd rimea
       femcrowd rimea --only 9 --model macro --out /tmp/rimea
+      femcrowd rimea --only 10 --only 11 --out /tmp/rimea
     """
     from ..studies import rimea as rm
 

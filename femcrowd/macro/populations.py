@@ -37,7 +37,8 @@ def split_correction(domain, exits, flux, rho_tilde: np.ndarray, total: np.ndarr
     facets = np.flatnonzero(mark)
     k0, k1 = domain.f2t[0][facets], domain.f2t[1][facets]
     moved = flux.facet_flux(domain, exits, facets)
-    keep = moved != 0
+    # across an exit only outflow: at a door at capacity its flux is 0 up to round-off (1e-20), either sign
+    keep = (moved > 0) | ((moved < 0) & (k1 >= 0))
     if not keep.any():
         return rho, evacuated
     facets, k0, k1, moved = facets[keep], k0[keep], k1[keep], moved[keep]

@@ -37,6 +37,8 @@ from ..mesh.distance import Eikonal
 
 #: the least f(rho) the route choice counts: a jam costs at most 1 / ROUTE_FLOOR times the free walk
 ROUTE_FLOOR = 0.05
+#: the most sweeps of choices and queues per route
+ROUTE_SWEEPS = 20
 
 
 class FieldVelocity:
@@ -203,12 +205,17 @@ class CongestionVelocity(ExitsVelocity):
         on_cells = phi[:, self.domain.triangles].mean(axis=2)                    # (exits, cells)
         with np.errstate(divide="ignore", invalid="ignore"):
             walk = np.where(self.speed > 0, on_cells / self.speed, np.inf)
-        previous = self.choice.get(heading, np.argmin(on_cells, axis=0))
-        time = np.maximum(walk, self._waits(exits, heading, phi, previous))
-        # the least time; between times equal but for round-off, the nearer exit; between those, the exit of before
-        walk = np.where(time <= time.min(axis=0) * (1 + 1e-9), walk, np.inf)
-        nearest = walk <= walk.min(axis=0) * (1 + 1e-9)
-        choice = np.where(nearest[previous, cells], previous, np.argmin(walk, axis=0))
+        # the choices and the queues they make, consistent: each cell's exit of least time given the queues of
+        # the others' choices, iterated from the last route's (a few sweeps; a cycle stops at ROUTE_SWEEPS)
+        choice = self.choice.get(heading, np.argmin(on_cells, axis=0))
+        for _ in range(ROUTE_SWEEPS):
+            time = np.maximum(walk, self._waits(exits, heading, phi, choice))
+            # the least time; between times equal but for round-off, the nearer exit; between those, the same
+            near = np.where(time <= time.min(axis=0) * (1 + 1e-9), walk, np.inf)
+            nearest = near <= near.min(axis=0) * (1 + 1e-9)
+            choice, before = np.where(nearest[choice, cells], choice, np.argmin(near, axis=0)), choice
+            if np.array_equal(choice, before):
+                break
         grad = np.empty((len(cells), 2))
         for e in np.unique(choice):
             grad[choice == e] = _p1_gradient(self.domain, phi[e], choice == e)
@@ -217,16 +224,16 @@ class CongestionVelocity(ExitsVelocity):
         self._cells[heading] = self._down(grad)
         return self._cells[heading]
 
-    def _waits(self, exits, heading, phi, previous) -> np.ndarray:
+    def _waits(self, exits, heading, phi, choice) -> np.ndarray:
         """W_e per cell: the crowd that headed for e at the last route and is nearer to e (smaller phi_e, the cell's
         own crowd left out), over what the door lets through; 0 at doors without a capacity. phi: (exits, nodes);
-        previous: the exit each cell headed for."""
+        choice: the exit each cell heads for."""
         on_cells = phi[:, self.domain.triangles]                       # (exits, cells, 3)
         waits = np.zeros(on_cells.shape[:2])
         for e, name in enumerate(heading):
             door = exits.doors[name]
             if door.capped:
-                queued = np.where(previous == e, self.mass, 0.0)
+                queued = np.where(choice == e, self.mass, 0.0)
                 level, low, high = on_cells[e].mean(axis=1), on_cells[e].min(axis=1), on_cells[e].max(axis=1)
                 own = queued * np.clip((level - low) / np.maximum(high - low, 1e-300), 0.0, 1.0)
                 waits[e] = (_mass_below(level, low, high, queued) - own) / (door.capacity * door.width)

@@ -6,7 +6,9 @@ JuPedSim's RiMEA tests, Juelich Supercomputing Centre); each runs with every var
 (:data:`VARIANTS`): the paper's density model and its discs (radius 0.23 m: pi r^2 / hexagonal packing =
 1 / 5.4 m^2, so that a disc is one person at the saturation density rho_max = 5.4 persons/m^2), and the
 settings docs/validation.md recommends for realistic door flows (door capacities, a speed law that pushes,
-arch-breaking discs). Each test judges what a user reads from the run: history, summary, measurements.csv.
+arch-breaking discs), and in the tests of route choice (10, 11) the recommended settings with the route choice
+that sees the crowd (``velocity.route = "congestion"``, femcrowd/macro/velocity.py CongestionVelocity). Each test
+judges what a user reads from the run: history, summary, measurements.csv.
 """
 
 from dataclasses import dataclass
@@ -23,6 +25,9 @@ from .recommended import DISCS, DOOR_CAPACITY, FLUCTUATION, PUSH, SPEED, door_ca
 
 #: the cases (shipped with femcrowd)
 CASES = shipped.cases("rimea")
+#: the route choice that sees the crowd: each cell heads for the exit of least max(walking time, waiting time),
+#: re-solved every second (the discs have no door capacity, so they see the walking time on their density only)
+ROUTES = {"velocity.route": "congestion"}
 
 
 @dataclass(frozen=True)
@@ -48,8 +53,15 @@ VARIANTS = {
     "micro": Variant("discs (the paper's)", {"model.type": "micro"}),
     "micro-recommended": Variant(f"discs, Weidmann, push {PUSH:g}, decelerating, fluctuation {FLUCTUATION:g} m/s "
                                  "(recommended)", {"model.type": "micro", **DISCS}),
+    "macro-routes": Variant(f"macro, Weidmann, push {PUSH:g}, doors {DOOR_CAPACITY:g} /(m s), route choice "
+                            "(recommended + congestion)", {**SPEED, **ROUTES}, doors=True),
+    "micro-routes": Variant(f"discs, Weidmann, push {PUSH:g}, decelerating, fluctuation {FLUCTUATION:g} m/s, route "
+                            "choice (recommended + congestion)", {"model.type": "micro", **DISCS, **ROUTES}),
 }
 MODELS = tuple(VARIANTS)
+#: the variants every test runs with (unless it names its own): all but the route choice, which only the tests of
+#: route choice (10, 11) run
+PLAIN = MODELS[:6]
 
 
 @dataclass
@@ -65,7 +77,7 @@ class RimeaTest:
     """A RiMEA test: its number and title, the criterion as RiMEA states it (and how it is judged here),
     its cases (names, or (name, overrides) pairs) and the judge of their results (one per case, in order);
     ``micro``: overrides of the disc runs; ``doors``: the interior doors of its floor plan (a capacity in
-    the variants with door capacities); ``variants``: those it runs with (None: all)."""
+    the variants with door capacities); ``variants``: those it runs with."""
 
     number: str
     title: str
@@ -74,7 +86,7 @@ class RimeaTest:
     judge: Callable
     micro: dict = None
     doors: tuple = ()
-    variants: tuple = None
+    variants: tuple = PLAIN
 
 
 def crossing_time(m: dict, line: str, count: float) -> float:
@@ -161,6 +173,29 @@ def four_and_two_doors(results) -> Verdict:
     return Verdict(f"out by {end:.0f} s: N4 {n4:.0f}, N2 {n2:.0f}, ratio {ratio:.2f}", 1.5 <= ratio <= 2.5)
 
 
+#: test 10: each exit and the population assigned to it ([populations.<name>] exits = [exit])
+ASSIGNED = {"main": "to_main", "secondary": "to_secondary"}
+
+
+def assigned_exits(results) -> Verdict:
+    """Test 10: who left by each exit (the count of a line on it) against the population assigned to it.
+    Each population heads for its exit only, so a person leaving by the other exit shows as a count above what
+    the exit's own population lost (a swap both ways would cancel out; tests/studies/test_rimea.py shows a
+    one-way misrouting caught); and everyone has to leave (the last out within the run)."""
+    r = results[0]
+    h, m = r.history, r.measurements
+    cells, wrong, inside = [], 0.0, 0.0
+    for door, population in ASSIGNED.items():
+        n = float(h[f"mass_{population}"][0] if f"mass_{population}" in h else h[f"count_{population}"][0])
+        out, through = float(h[f"evacuated_{population}"][-1]), float(m[f"{door}_count"][-1])
+        cells.append(f"{door} {through:.4g} of {n:.0f}")
+        wrong += max(through - out, 0.0)
+        inside += n - out
+    end = float(h["time"][-1])
+    state = f"all out by {end:.0f} s" if inside < 0.05 else f"{inside:.4g} inside at {end:.0f} s"
+    return Verdict(f"{', '.join(cells)}, {wrong:.1f} by the other exit; {state}", wrong < 0.05 and inside < 0.05)
+
+
 def exit_choice(results) -> Verdict:
     """Test 11: the share of the people who leave through each exit."""
     m = results[0].measurements   # lines on the two doors
@@ -200,9 +235,13 @@ TESTS = [
     RimeaTest("9", "leaving a large public space", "1000 persons, four doors; with doors 1 and 2 locked it takes "
               "approximately twice as long (judged: 1.5 <= T2 / T4 <= 2.5, T when the last person has left)",
               ("test09-four-exits", "test09-two-exits"), four_and_two_doors, {"time.end": 40.0}),
+    RimeaTest("10", "allocation of escape routes", "23 persons in twelve rooms, each assigned the main exit "
+              "(rooms 1-4, 7-10: 15) or the secondary one (rooms 5, 6, 11, 12: 8), use their assigned exits "
+              "(judged: each exit passes its 15 or 8 and nobody else, everyone out)",
+              ("test10-escape-routes",), assigned_exits, variants=MODELS),
     RimeaTest("11", "choice of exit", "the persons prefer the nearest exit, some choose the second one "
               "(judged: more use the near exit, at least one person the far one)",
-              ("test11-exit-choice",), exit_choice),
+              ("test11-exit-choice",), exit_choice, variants=MODELS),
     RimeaTest("12", "effect of bottlenecks", "150 persons leave a room through a corridor into a second room; "
               "no congestion at the last exit (judged as JuPedSim: J_e >= J_b - 0.05 persons/s)",
               ("test12-bottlenecks",), bottlenecks, doors=("corridor",)),
@@ -238,8 +277,8 @@ def run_all(only=(), models=MODELS, cases=CASES, out=None, echo=None) -> list:
     """Every selected test with every variant in `models` it runs with: rows (test, {variant: (Verdict, seconds)})."""
     rows = []
     for test in select(only):
-        verdicts = {variant: run_test(test, variant, cases, out) if test.variants is None or variant in test.variants
-                    else None for variant in models}
+        verdicts = {variant: run_test(test, variant, cases, out) if variant in test.variants else None
+                    for variant in models}
         rows.append((test, verdicts))
         if echo is not None:
             echo(format_row(test, verdicts))

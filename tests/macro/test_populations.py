@@ -3,10 +3,11 @@ flux keeps every population >= 0, conserves each one, and sums to the projected 
 
 import numpy as np
 
+from femcrowd import Simulation, load_case
 from femcrowd.macro.populations import split_correction
 from femcrowd.mesh import Boundary
 
-from ..support import Projector, unit_square
+from ..support import CASES, Projector, unit_square
 
 
 def explicit_split(domain, exits, flux, rho_tilde):
@@ -71,3 +72,16 @@ def test_colours_of_one_crowd_are_split_in_proportion():
     rho, _ = split_correction(domain, exits, flux, mixed, total)
     assert np.allclose(rho[0], 0.3 * total, rtol=0, atol=1e-10)
     assert np.allclose(rho[1], 0.7 * total, rtol=0, atol=1e-10)
+
+
+def test_populations_behind_capped_exits():
+    """Two populations, each to its own exit, both exits with a capacity (RiMEA test 10's scene): the flux across
+    a capped exit facet is 0 up to round-off, of either sign, and is no inflow; every population keeps its mass."""
+    case = load_case(CASES / "rimea" / "test10-escape-routes", ["boundary.capacity={main=1.9, secondary=1.9}",
+                                                               "time.end=3"])
+    result = Simulation(case).run(None, quiet=True)
+    summary, history = result.summary, result.history
+    assert summary["status"] == "completed" and summary["final_time"] == 3.0
+    for name in ("to_main", "to_secondary"):
+        mass = history[f"mass_{name}"] + history[f"evacuated_{name}"]
+        assert np.abs(mass - mass[0]).max() <= 1e-12 * mass[0]

@@ -3,7 +3,6 @@ convergence of the potential with a density-dependent cost, symmetry, and a crow
 wider exit when the near door queues."""
 
 import numpy as np
-import pytest
 
 from femcrowd import Simulation, load_case
 from femcrowd.case import Expression
@@ -11,9 +10,8 @@ from femcrowd.macro import MacroSolver, MacroState
 from femcrowd.macro.speed_law import SpeedLaw
 from femcrowd.macro.velocity import CongestionVelocity, ExitsVelocity
 from femcrowd.mesh import Boundary
-from femcrowd.mesh.floorplan import build_mesh
 
-from ..support import unit_square
+from ..support import CASES, unit_square
 
 
 def congestion(domain, route_every=1.0, law="constant"):
@@ -67,27 +65,11 @@ def test_a_symmetric_room_with_two_equal_exits_stays_symmetric():
     assert abs(state.evacuated[0, 0] - state.evacuated[0, 1]) <= 1e-9 * state.evacuated.sum()
 
 
-@pytest.fixture(scope="module")
-def near_and_far(tmp_path_factory):
-    """A 12 m x 6 m room, a 0.8 m door near the crowd and a 2.4 m door at the far end, both 1.9 persons/(m s)."""
-    directory = tmp_path_factory.mktemp("near-and-far")
-    (directory / "plan.toml").write_text(
-        'size = 0.4\n[outer]\npoints = [[0, 0], [12, 0], [12, 6], [0, 6]]\n'
-        '[[exits]]\nname = "near"\nfrom = [0, 2.6]\nto = [0, 3.4]\n'
-        '[[exits]]\nname = "far"\nfrom = [12, 1.8]\nto = [12, 4.2]\n')
-    build_mesh(directory / "plan.toml")
-    (directory / "case.toml").write_text(
-        '[mesh]\nfile = "plan.msh"\n[boundary]\nexits = ["near", "far"]\n'
-        '[boundary.capacity]\nnear = 1.9\nfar = 1.9\n[model]\nrho_max = 5.4\n'
-        '[velocity]\nspeed = 1.3\nspeed_law = "weidmann"\npush = 0.2\n'
-        '[initial]\ndensity = "2.5 * (x > 1) * (x < 5) * (y > 0.5) * (y < 5.5)"\n[time]\nend = 200.0\n')
-    return directory / "case.toml"
-
-
-def test_part_of_the_crowd_takes_the_far_wide_exit(near_and_far):
-    """With shortest paths everybody queues at the near door; with the route choice a part walks to the far
-    one and the room empties sooner, every invariant kept."""
-    runs = {route: Simulation(load_case(near_and_far, [f'velocity.route="{route}"'])).run(None, quiet=True)
+def test_part_of_the_crowd_takes_the_far_wide_exit():
+    """cases/route-choice (a 0.8 m door near the crowd, a 2.4 m one 12 m away, both 1.9 persons/(m s)): with
+    shortest paths everybody queues at the near door; with the route choice a part walks to the far one and
+    the room empties sooner, every invariant kept."""
+    runs = {route: Simulation(load_case(CASES / "route-choice", [f'velocity.route="{route}"'])).run(None, quiet=True)
             for route in ("shortest", "congestion")}
     short, routed = (runs[r].summary for r in ("shortest", "congestion"))
     assert short["evacuated_by_exit"]["far"] == 0.0
