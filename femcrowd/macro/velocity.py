@@ -37,8 +37,6 @@ from ..mesh.distance import Eikonal
 
 #: the least f(rho) the route choice counts: a jam costs at most 1 / ROUTE_FLOOR times the free walk
 ROUTE_FLOOR = 0.05
-#: the most sweeps of choices and queues per route
-ROUTE_SWEEPS = 20
 
 
 class FieldVelocity:
@@ -205,17 +203,13 @@ class CongestionVelocity(ExitsVelocity):
         on_cells = phi[:, self.domain.triangles].mean(axis=2)                    # (exits, cells)
         with np.errstate(divide="ignore", invalid="ignore"):
             walk = np.where(self.speed > 0, on_cells / self.speed, np.inf)
-        # the choices and the queues they make, consistent: each cell's exit of least time given the queues of
-        # the others' choices, iterated from the last route's (a few sweeps; a cycle stops at ROUTE_SWEEPS)
-        choice = self.choice.get(heading, np.argmin(on_cells, axis=0))
-        for _ in range(ROUTE_SWEEPS):
-            time = np.maximum(walk, self._waits(exits, heading, phi, choice))
-            # the least time; between times equal but for round-off, the nearer exit; between those, the same
-            near = np.where(time <= time.min(axis=0) * (1 + 1e-9), walk, np.inf)
-            nearest = near <= near.min(axis=0) * (1 + 1e-9)
-            choice, before = np.where(nearest[choice, cells], choice, np.argmin(near, axis=0)), choice
-            if np.array_equal(choice, before):
-                break
+        # the queues are those of the last route's choices (the first: the nearest exits)
+        previous = self.choice.get(heading, np.argmin(on_cells, axis=0))
+        time = np.maximum(walk, self._waits(exits, heading, phi, previous))
+        # the least time; between times equal but for round-off, the nearer exit; between those, the exit of before
+        near = np.where(time <= time.min(axis=0) * (1 + 1e-9), walk, np.inf)
+        nearest = near <= near.min(axis=0) * (1 + 1e-9)
+        choice = np.where(nearest[previous, cells], previous, np.argmin(near, axis=0))
         grad = np.empty((len(cells), 2))
         for e in np.unique(choice):
             grad[choice == e] = _p1_gradient(self.domain, phi[e], choice == e)
