@@ -78,16 +78,24 @@ class Controller:
         sink.checkpoint(index)
 
 
+#: the signals that end a run after its step, as Ctrl-C does: SIGTERM (kill, a batch system's time limit) and
+#: SIGHUP (the terminal closed) too
+STOP_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name))
+
+
 class _InterruptAfterTheStep:
-    """A context in which the first SIGINT only marks the loop as interrupted (a list made non-empty):
-    the step under way ends, so that the state is whole. A second SIGINT interrupts at once. Outside
-    the main thread (where Python delivers signals) nothing changes."""
+    """A context in which the first SIGINT, SIGTERM or SIGHUP only marks the loop as interrupted (a list made
+    non-empty): the step under way ends, so that the state is whole. A second one interrupts at once. Signals
+    with a handler of someone else's keep it; outside the main thread (where Python delivers signals) nothing
+    changes."""
 
     def __enter__(self):
-        self.flag, self.previous = [], None
-        if threading.current_thread() is threading.main_thread() \
-                and signal.getsignal(signal.SIGINT) is signal.default_int_handler:
-            self.previous = signal.signal(signal.SIGINT, self._handle)
+        self.flag, self.previous = [], {}
+        if threading.current_thread() is threading.main_thread():
+            for stop in STOP_SIGNALS:
+                default = signal.default_int_handler if stop == signal.SIGINT else signal.SIG_DFL
+                if signal.getsignal(stop) is default:
+                    self.previous[stop] = signal.signal(stop, self._handle)
         return self.flag
 
     def _handle(self, signum, frame):
@@ -96,6 +104,6 @@ class _InterruptAfterTheStep:
         self.flag.append(signum)
 
     def __exit__(self, *exc):
-        if self.previous is not None:
-            signal.signal(signal.SIGINT, self.previous)
+        for stop, handler in self.previous.items():
+            signal.signal(stop, handler)
         return False

@@ -55,7 +55,9 @@ def uninterrupted(tmp_path_factory):
     return out
 
 
-def test_ctrl_c_at_a_random_step_then_resume(tmp_path, uninterrupted):
+@pytest.mark.parametrize("stop", [signal.SIGINT, signal.SIGTERM, signal.SIGHUP], ids=["INT", "TERM", "HUP"])
+def test_a_signal_at_a_random_step_then_resume(tmp_path, uninterrupted, stop):
+    """Ctrl-C, kill or a closed terminal: the step under way ends, the run is checkpointed and says so."""
     out = tmp_path / "out"
     stop_after = random.Random().randint(20, 200)  # history rows before the signal
     proc = subprocess.Popen([str(FEMCROWD), "run", str(CASE), "--out", str(out), "-q"], stdout=subprocess.PIPE,
@@ -67,7 +69,7 @@ def test_ctrl_c_at_a_random_step_then_resume(tmp_path, uninterrupted):
         if history.is_file() and len(history.read_text().splitlines()) > stop_after:
             break
         time.sleep(0.01)
-    proc.send_signal(signal.SIGINT)
+    proc.send_signal(stop)
     _, stderr = proc.communicate(timeout=300)
     if proc.returncode == 0:
         pytest.skip(f"the run ended before the signal (after {stop_after} rows): nothing to resume")
