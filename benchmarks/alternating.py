@@ -64,3 +64,11 @@ def rounds(configs, repeat: int, measure) -> dict:
 
 def median(runs, key) -> float:
     return float(np.median([r[key] for r in runs]))
+
+
+
+def by_size(sizes, configs, repeat: int, measure):
+    """The runs {name: [one per round]} at each size, the configurations in alternated rounds;
+    measure(size, code, value) -> dict (a worker makes and caches its mesh before it times anything)."""
+    for size in sizes:
+        yield rounds(configs, repeat, lambda code, value: measure(size, code, value))

@@ -23,7 +23,7 @@ import json
 import tempfile
 from pathlib import Path
 
-from alternating import arguments, in_process, median, rounds, timed_steps  # this script's folder is on sys.path
+from alternating import arguments, by_size, in_process, median, timed_steps  # this script's folder is on sys.path
 from scale import DENSITY, mesh_file  # the hall of benchmarks/scale.py
 
 
@@ -59,10 +59,8 @@ def main():
     print("| triangles | configuration | step (median) | transport | projection | steps at capacity | "
           "step / free |")
     print("|---:|---|---:|---:|---:|---:|---:|")
-    for target in args.sizes:
-        mesh_file(target)
-        runs = rounds(configs, args.repeat,
-                      lambda code, capacity: in_process(__file__, (target, capacity, args.steps), code))
+    for runs in by_size(args.sizes, configs, args.repeat,
+                        lambda target, code, capacity: in_process(__file__, (target, capacity, args.steps), code)):
         free = median(runs["free"], "step")
         for name, _, _ in configs:
             step = median(runs[name], "step")

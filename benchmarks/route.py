@@ -19,7 +19,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from alternating import in_process, median, rounds  # this script's folder is on sys.path
+from alternating import by_size, in_process, median  # this script's folder is on sys.path
 from scale import mesh_file
 
 HALL = """size = {size:.6g}
@@ -74,9 +74,8 @@ def main():
     configs = [("shortest", None, "shortest"), ("congestion", None, "congestion")]
     print("| triangles | route | steps | wall (median) | route phase | route share | wall / shortest |")
     print("|---:|---|---:|---:|---:|---:|---:|")
-    for target in args.sizes:
-        mesh_file(target, HALL, "two_doors")
-        runs = rounds(configs, args.repeat, lambda code, route: in_process(__file__, (target, route, args.seconds)))
+    for runs in by_size(args.sizes, configs, args.repeat,
+                        lambda target, code, route: in_process(__file__, (target, route, args.seconds))):
         shortest = median(runs["shortest"], "wall")
         for name, _, _ in configs:
             for run in runs[name]:
