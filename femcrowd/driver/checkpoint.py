@@ -66,6 +66,22 @@ def read(directory, identity: dict) -> tuple[dict, dict, dict]:
     return state, rows, meta["position"]
 
 
+def restore(directory, case, model, recorder, state: dict, rows: dict) -> None:
+    """Continue the model and the record from a checkpoint read by :func:`read`; InputError if its arrays do not
+    fit this run (a checkpoint made or edited by hand) or if the case now ends before the checkpoint's time."""
+    t, end = float(np.asarray(state.get("t", np.nan))), case["time"]["end"]
+    if t > end:
+        raise InputError(case.file, "time.end", end, f"is before the time of the checkpoint, t = {t:.6g} s: "
+                         "--resume continues a run, it cannot end it earlier (run it anew, without --resume)")
+    try:
+        model.restore(state)
+        recorder.restore(rows)
+    except (KeyError, ValueError, IndexError, TypeError) as err:
+        raise InputError(Path(directory) / NAME, "--resume", str(directory),
+                         f"the checkpoint's arrays do not fit this run ({type(err).__name__}: {err}): "
+                         "made or edited by hand?") from None
+
+
 def parts(**components) -> dict:
     """The snapshots of a model's components (sources, measurements), their keys prefixed by the name."""
     return {f"{name}.{k}": v for name, part in components.items() if part is not None

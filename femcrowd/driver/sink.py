@@ -37,8 +37,7 @@ class RunFiles:
         position = {}
         if resume:   # checked before anything is written
             state, rows, position = checkpoint.read(out, identity)
-            model.restore(state)
-            recorder.restore(rows)
+            checkpoint.restore(out, case, model, recorder, state, rows)
             directory = Path(out)
         else:
             directory = prepare_output_dir(out, case.file, force) if out is not None else None

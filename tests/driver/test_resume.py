@@ -105,9 +105,19 @@ def test_disc_runs_resume_too(tmp_path):
     assert np.abs(a.points - b.points).max() <= 1e-9  # the same discs, to the solver's tolerance
 
 
+def drop_array(path, name):
+    """The checkpoint as a hand-made one might be: a valid archive with one array left out."""
+    with np.load(path) as data:
+        arrays = {k: data[k] for k in data.files if k != name}
+    with open(path, "wb") as f:
+        np.savez(f, **arrays)
+
+
 @pytest.mark.parametrize("spoil, words", [
     (lambda out: (out / "checkpoint.npz").write_bytes((out / "checkpoint.npz").read_bytes()[:200]), "corrupted"),
     (lambda out: (out / "checkpoint.npz").unlink(), "no checkpoint"),
+    (lambda out: drop_array(out / "checkpoint.npz", "state/rho"), "do not fit this run"),
+    (lambda out: drop_array(out / "checkpoint.npz", "row/mass"), "do not fit this run"),
 ])
 def test_a_bad_checkpoint_is_refused_and_nothing_changes(tmp_path, spoil, words):
     out = tmp_path / "out"
@@ -117,6 +127,17 @@ def test_a_bad_checkpoint_is_refused_and_nothing_changes(tmp_path, spoil, words)
     result = invoke("run", CASE, "--out", out, "-q", "--resume")
     assert result.exit_code == 2 and result.stderr.count("\n") == 1 and words in result.stderr, result.output
     assert "--resume" in result.stderr and snapshot(out) == before
+
+
+def test_resume_to_an_earlier_end_is_refused(tmp_path):
+    """A checkpoint at 0.5 s, resumed with time.end = 0.25: one line naming the key, exit 2, nothing touched."""
+    out = tmp_path / "out"
+    assert invoke("run", CASE, "--out", out, "-q", "--set", "time.end=0.5").exit_code == 0
+    before = snapshot(out)
+    result = invoke("run", CASE, "--out", out, "-q", "--resume", "--set", "time.end=0.25")
+    assert result.exit_code == 2 and result.stderr.count("\n") == 1, result.output
+    assert "time.end = 0.25" in result.stderr and "before the time of the checkpoint" in result.stderr
+    assert snapshot(out) == before
 
 
 def test_a_checkpoint_of_another_case_or_mesh_is_refused(tmp_path):
