@@ -12,6 +12,9 @@ on the command line (``--out``) is relative to the current directory.
 
 import copy
 import difflib
+import json
+import math
+import os
 import re
 import tomllib
 from collections.abc import Mapping
@@ -50,6 +53,27 @@ class Case:
         if out is not None:
             return Path(out).resolve()
         return self.path(self.config["output"]["dir"]) / subdirectory
+
+    def resolved_toml(self, directory) -> str:
+        """This case as TOML, as it runs: defaults filled, overrides applied, the paths it names (mesh.file,
+        micro.positions, convergence.meshes and .reference) relative to `directory`: a file there that runs the
+        same case on its own."""
+        config = copy.deepcopy(self.config)
+        moved = lambda name: Path(os.path.relpath(self.path(name), Path(directory).resolve())).as_posix()  # noqa: E731
+        config["mesh"]["file"] = moved(config["mesh"]["file"])
+        if config["micro"]["positions"] is not None:
+            config["micro"]["positions"] = moved(config["micro"]["positions"])
+        convergence = config["convergence"]
+        convergence["meshes"] = [moved(name) for name in convergence["meshes"]]
+        if convergence["reference"] is not None:
+            convergence["reference"] = moved(convergence["reference"])
+        head = [f"# {self.file.name} of {self.directory} as this run used it: defaults filled, --set applied, paths",
+                "# from this directory. `femcrowd run` on this directory runs it again.\n"]
+        top = [f"{_toml_key(k)} = {_toml(v)}" for k, v in config.items() if not isinstance(v, dict) and v is not None]
+        tables = [f"\n[{_toml_key(k)}]\n" + "".join(f"{_toml_key(key)} = {_toml(value)}\n"
+                                                    for key, value in v.items() if value is not None)
+                  for k, v in config.items() if isinstance(v, dict)]
+        return "\n".join(head + top) + "\n" + "".join(tables)
 
     def expression(self, section, key):
         """The parsed Expression of a number-or-expression key."""
@@ -138,3 +162,27 @@ def _resolve_tables(raw, spec, file, key):
         if not TABLE_NAME.fullmatch(label):
             raise InputError(file, f"{key}.{label}", raw[label], "a name is letters, digits, _ and - only")
     return {label: _resolve(table, spec.keys, file, f"{key}.{label}.") for label, table in raw.items()}
+
+
+def _toml_key(key: str) -> str:
+    return key if key and all(c.isalnum() or c in "_-" for c in key) else json.dumps(key)
+
+
+def _toml(value) -> str:
+    """A value of a resolved case as TOML (written by hand: tomllib only reads, and the values are a few plain
+    kinds): tables inline, None entries left out, floats exact (repr), inf and nan as TOML spells them."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        if math.isnan(value):
+            return "nan"
+        return repr(value) if math.isfinite(value) else ("inf" if value > 0 else "-inf")
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{_toml_key(k)} = {_toml(v)}" for k, v in value.items() if v is not None) + "}"
+    raise TypeError(f"no TOML for {value!r}")

@@ -12,7 +12,6 @@ import csv
 import json
 import logging
 import os
-import shutil
 from pathlib import Path
 
 import meshio
@@ -73,10 +72,6 @@ def _json_default(value):
     if isinstance(value, Path):
         return str(value)
     raise TypeError(type(value))
-
-
-def copy_case(case_file, directory) -> None:
-    shutil.copyfile(case_file, Path(directory) / "case.toml")
 
 
 class FrameSeries:

@@ -5,7 +5,7 @@ all, for a run without an output directory (the Python API, the studies)."""
 from pathlib import Path
 
 from . import checkpoint
-from .output import FrameSeries, HistoryFile, copy_case, prepare_output_dir, write_json
+from .output import FrameSeries, HistoryFile, prepare_output_dir, write_json
 
 
 class RunFiles:
@@ -20,7 +20,7 @@ class RunFiles:
         self.frames, self.sinks = None, []
         if directory is None:
             return
-        copy_case(case.file, directory)
+        (directory / "case.toml").write_text(case.resolved_toml(directory))   # runs again on its own
         self.frames = FrameSeries(directory, model.stem, (position or {}).get("frames"))
         recorder.sink = HistoryFile(directory / "history.csv", recorder.history_columns, recorder.records())
         self.sinks.append(recorder.sink)

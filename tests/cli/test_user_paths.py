@@ -107,3 +107,16 @@ def test_a_study_takes_the_steps_of_femcrowd_run(tmp_path):
         assert state_steps == summary["steps"]
         h = read_history(tmp_path / str(task.level) / "history.csv")
         assert np.all(h["dt"][1:] > 1e-12)  # no step of round-off length before a frame time
+
+
+def test_the_case_of_an_output_directory_runs_the_same_case(tmp_path):
+    """The case.toml a run writes (defaults filled, --set applied, paths from the output directory) runs again on
+    its own, in another directory: the same history (but the wall time of the steps)."""
+    first, again = tmp_path / "first" / "out", tmp_path / "again"
+    args = ["--set", "time.end=3", "--set", "velocity.speed=1.1", "--set", 'boundary.open={door=[[0, 2], [2.5, inf]]}']
+    assert CliRunner().invoke(main, ["run", str(CASES / "entrance"), "--out", str(first), "-q", *args]).exit_code == 0
+    result = CliRunner().invoke(main, ["run", str(first), "--out", str(again), "-q"])
+    assert result.exit_code == 0, result.output
+    a, b = read_history(first / "history.csv"), read_history(again / "history.csv")
+    assert set(a) == set(b) and all(np.array_equal(a[k], b[k]) for k in a if k != "step_seconds")
+    assert load_case(first).config["velocity"]["speed"] == 1.1
