@@ -228,9 +228,9 @@ class CongestionVelocity(ExitsVelocity):
             door = exits.doors[name]
             if door.capped:
                 queued = np.where(choice == e, self.mass, 0.0)
-                level, low, high = on_cells[e].mean(axis=1), on_cells[e].min(axis=1), on_cells[e].max(axis=1)
-                own = queued * np.clip((level - low) / np.maximum(high - low, 1e-300), 0.0, 1.0)
-                waits[e] = (_mass_below(level, low, high, queued) - own) / (door.capacity * door.width)
+                ahead = _mass_ahead(on_cells[e].mean(axis=1), on_cells[e].min(axis=1), on_cells[e].max(axis=1),
+                                    queued)
+                waits[e] = ahead / (door.capacity * door.width)
         return waits
 
     def snapshot(self) -> dict:
@@ -260,18 +260,22 @@ class CongestionVelocity(ExitsVelocity):
         return np.where(np.isfinite(d), d, -1.0)
 
 
-def _mass_below(levels, low, high, mass) -> np.ndarray:
-    """At each level s: the mass of the cells below it, each cell's mass spread evenly over its span [low, high]
-    of phi (sum_k m_k clip((s - low_k) / (high_k - low_k), 0, 1)): continuous in s, so cells at the same
-    level in exact arithmetic see the same mass ahead whatever the round-off of phi."""
+def _mass_ahead(level, low, high, mass) -> np.ndarray:
+    """Per cell k: the mass of the other cells below its level, each cell's mass spread evenly over its span
+    [low, high] of phi: sum_{j != k} m_j clip((level_k - low_j) / (high_j - low_j), 0, 1). Continuous in the
+    levels, so cells at the same level in exact arithmetic see the same mass ahead whatever the round-off of phi."""
     finite = np.isfinite(low) & np.isfinite(high) & (mass > 0)
-    low, high, mass = low[finite], high[finite], mass[finite]
-    width = np.maximum(high - low, 1e-6 * float(high.max(initial=1.0)))   # a level set of cells: a steep ramp
+    floor = 1e-6 * float(high[finite].max(initial=1.0))       # a level set of cells: a steep ramp
+    width = np.maximum(high - low, floor)
+    own = np.where(finite, mass * np.clip((level - low) / width, 0.0, 1.0), 0.0)
+    if not finite.any():
+        return np.zeros(len(level))
+    low, width, mass = low[finite], width[finite], mass[finite]
     at = np.concatenate([low, low + width])
-    slope = np.concatenate([mass / width, -mass / width])[np.argsort(at, kind="stable")]
-    at = np.sort(at, kind="stable")
+    order = np.argsort(at, kind="stable")
+    slope, at = np.concatenate([mass / width, -mass / width])[order], at[order]
     below = np.concatenate([[0.0], np.cumsum(np.cumsum(slope)[:-1] * np.diff(at))])
-    return np.interp(levels, at, below, left=0.0, right=float(mass.sum())) if len(at) else np.zeros(len(levels))
+    return np.interp(level, at, below, left=0.0, right=float(mass.sum())) - own
 
 
 def _p1_gradient(domain, d, cells=slice(None)):
