@@ -19,13 +19,24 @@ def timed(seconds: dict, phase: str):
 
 
 class Timer:
-    """Seconds per phase; ``seconds`` maps each phase to its total."""
+    """Seconds per phase; ``seconds`` maps each phase to its total. A phase timed inside another (the
+    measurements inside a step's projection) is booked to itself alone: the phases add up to the time spent."""
 
     def __init__(self):
         self.seconds = defaultdict(float)
+        self._inner = []   # per open phase, the seconds of the phases timed inside it
 
+    @contextmanager
     def __call__(self, phase: str):
-        return timed(self.seconds, phase)
+        tic = time.perf_counter()
+        self._inner.append(0.0)
+        try:
+            yield
+        finally:
+            elapsed, inner = time.perf_counter() - tic, self._inner.pop()
+            self.seconds[phase] += elapsed - inner
+            if self._inner:
+                self._inner[-1] += elapsed
 
     def __getitem__(self, phase: str) -> float:
         return self.seconds[phase]

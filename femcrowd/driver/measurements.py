@@ -29,6 +29,7 @@ import shapely
 from ..case import Case
 from ..errors import InputError
 from ..macro.lines import LineFlux
+from ..macro.reconstruction import CellMean
 from ..mesh import Domain
 from ..mesh.outline import walkable_area
 from ..micro.crossings import segment_crossings
@@ -143,20 +144,29 @@ class MacroMeasurements:
                              len(lines)) if lines else None
         self.count = np.zeros(len(lines))
         self.max_density = None
+        # the velocity of the areas' cells (from their facets alone), and where each area's cells are among them
+        cells = np.unique(np.concatenate([area.cells for area in areas])) if areas else np.zeros(0, np.intp)
+        self.area_velocity = CellMean(domain, cells)
+        self.area_rows = [np.searchsorted(cells, area.cells) for area in areas]
 
     def attach(self, solver, state) -> None:
         """Register the hooks and record the initial row."""
         if self.flux is not None:
-            solver.before_step.append(self.flux.before_step)
+            solver.before_step.append(self.before_step)
         solver.after_step.append(self.after_step)
         self.max_density = state.density * self.rho_max
         self.recorder.add(self._row(solver, state, np.zeros(len(self.lines)), 0.0))
 
+    def before_step(self, solver, state, dt) -> None:
+        with solver.timers("measurements"):
+            self.flux.before_step(solver, state, dt)
+
     def after_step(self, solver, state, result) -> None:
-        through = self.flux.after_step(result) * self.rho_max if self.flux is not None else np.zeros(0)
-        self.count += through
-        np.maximum(self.max_density, state.density * self.rho_max, out=self.max_density)
-        self.recorder.add(self._row(solver, state, through, result.dt))
+        with solver.timers("measurements"):
+            through = self.flux.after_step(result) * self.rho_max if self.flux is not None else np.zeros(0)
+            self.count += through
+            np.maximum(self.max_density, state.density * self.rho_max, out=self.max_density)
+            self.recorder.add(self._row(solver, state, through, result.dt))
 
     def snapshot(self) -> dict:
         return {"count": self.count.copy(), "max_density": self.max_density.copy(),
@@ -173,12 +183,12 @@ class MacroMeasurements:
             row[f"{line.name}_count"] = self.count[k]
         if self.areas:
             density = state.density * self.rho_max
-            speed = np.hypot(*solver.velocity_field(state).T)
-            for area in self.areas:
+            speed = np.hypot(*solver.velocity_field(state, self.area_velocity).T)
+            for area, rows in zip(self.areas, self.area_rows):
                 rho, w = density[area.cells], area.weights
                 mass = w @ rho
                 row[f"{area.name}_density"] = mass / w.sum()
-                row[f"{area.name}_speed"] = (w * rho) @ speed[area.cells] / mass if mass > 0 else 0.0
+                row[f"{area.name}_speed"] = (w * rho) @ speed[rows] / mass if mass > 0 else 0.0
                 row[f"{area.name}_pressure"] = float(state.p[area.cells].max())
         return row
 

@@ -142,7 +142,8 @@ class MicroModel:
             sim.t = until
         sim.tau = self.tau
         if self.measurements is not None:
-            self.measurements.record(before, sim, info)
+            with self.timers("measurements"):
+                self.measurements.record(before, sim, info)
         if self.trajectories is not None:
             self.trajectories.step(sim.t, info.dt, info.ids, info.q, info.u)
         self.last = info

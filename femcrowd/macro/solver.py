@@ -24,7 +24,7 @@ from ..step import Step
 from ..timer import Stopwatch, Timer
 from .populations import split_correction
 from .projection import CellOrder, PressureFlux, Projection
-from .reconstruction import actual_velocity
+from .reconstruction import CellMean, actual_velocity
 from .state import MacroState
 from .transport import TRANSPORTS
 from .transport.lwr import LWRTransport, joint_max_dt
@@ -68,6 +68,8 @@ class MacroSolver:
         self._projections = {}    # per set of open exits: (Projection, outflow matrix of the pressure flux)
         self._transports = None   # (exits, the velocities' versions, one transport per population)
         self._open = None         # the open exits of the last projection (a door that changed: no warm start)
+        self._cell_mean = None    # the RT0 cell means of all cells (the output velocity), assembled once
+        self._normals = {}        # per CellMean: (exits, the velocities' versions, U_i . n on its facets)
 
     def transports(self, state: MacroState, exits) -> list:
         """The transport of each population at the state's time, on these exits."""
@@ -175,12 +177,15 @@ class MacroSolver:
         populations (measurement lines; their before-step hook calls it once the sources are added)."""
         exits = self.boundary.at(state.t)
         schemes = self.transports(state, exits)
-        flux = sum(scheme.facet_flux(rho, dt, *seen)
+        facets = np.arange(len(self.domain.length)) if facets is None else facets
+        flux = sum(scheme.facet_flux(rho, dt, *seen, facets=facets)
                    for scheme, rho, seen in zip(schemes, state.rho, self._seen(state, schemes)))
         if exits.caps is not None:   # the doors' cap of the step (mesh/capacity.py)
-            cap = exits.caps.rate * dt
-            flux[exits.caps.facets] = np.clip(flux[exits.caps.facets], -cap, cap)
-        return flux if facets is None else flux[facets]
+            cap = np.zeros(len(self.domain.length))
+            cap[exits.caps.facets] = exits.caps.rate * dt
+            capped = np.isin(facets, exits.caps.facets)
+            flux[capped] = np.clip(flux[capped], -cap[facets[capped]], cap[facets[capped]])
+        return flux
 
     @staticmethod
     def _seen(state: MacroState, schemes):
@@ -197,20 +202,33 @@ class MacroSolver:
         total = flux.apply(rho_tilde.sum(axis=0), self.domain.area)
         return split_correction(self.domain, exits, flux, rho_tilde, total)
 
-    def velocity_field(self, state: MacroState) -> np.ndarray:
-        """Actual velocity u = U - grad p per cell, U = f(rho) U0 (the mean of the populations' U_i
-        weighted by their shares of the cell's density)."""
-        exits = self.boundary.at(state.t)
+    def velocity_field(self, state: MacroState, mean: CellMean | None = None) -> np.ndarray:
+        """Actual velocity u = U - grad p per cell (of ``mean``, default all), U = f(rho) U0 (the mean of the
+        populations' U_i weighted by their shares of the cell's density)."""
+        if mean is None:
+            if self._cell_mean is None:
+                self._cell_mean = CellMean(self.domain)
+            mean = self._cell_mean
+        exits, facets = self.boundary.at(state.t), mean.facets
+        normals = self._desired_normals(state, exits, mean)
         if len(self.velocities) == 1 and self.laws[0] is None:
-            return actual_velocity(self.domain, exits, self.velocities[0].normal_on_facets(state, exits), state.p,
-                                   state.jump)
+            return actual_velocity(self.domain, exits, normals[0], state.p, state.jump, mean)
         rho = state.density
         with np.errstate(invalid="ignore", divide="ignore"):
             share = np.where(rho > 0, state.rho / rho, 1.0 / len(state.rho))
-        k0, k1 = self.domain.f2t
+        k0, k1 = self.domain.f2t[0][facets], self.domain.f2t[1][facets]
         sides = (k0, np.where(k1 >= 0, k1, k0))
         normal = 0.0
-        for i, (velocity, law) in enumerate(zip(self.velocities, self.laws)):
+        for i, law in enumerate(self.laws):
             weight = share[i] * (law(rho) if law is not None else 1.0)
-            normal = normal + np.stack([weight[k] for k in sides]) * velocity.normal_on_facets(state, exits)
-        return actual_velocity(self.domain, exits, normal, state.p, state.jump)
+            normal = normal + np.stack([weight[k] for k in sides]) * normals[i]
+        return actual_velocity(self.domain, exits, normal, state.p, state.jump, mean)
+
+    def _desired_normals(self, state, exits, mean: CellMean) -> list:
+        """U_i . n on the facets of ``mean``, per population; kept while the doors and the U_i stay the same."""
+        versions = tuple(v.version(state, exits) for v in self.velocities)
+        kept = self._normals.get(mean)
+        if kept is None or kept[0] is not exits or kept[1] != versions:
+            kept = self._normals[mean] = (exits, versions,
+                                          [v.normal_on_facets(state, exits, mean.facets) for v in self.velocities])
+        return kept[2]

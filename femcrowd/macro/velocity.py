@@ -55,9 +55,9 @@ class FieldVelocity:
     def version(self, state, exits=None):
         return None if self.steady else state.t
 
-    def normal_on_facets(self, state, exits=None) -> np.ndarray:
-        """(2, F): U(m_e) . n_e, the same seen from both cells of the facet."""
-        a = np.einsum("ij,ij->i", self.at_points(self.domain.midpoint, state.t), self.domain.normal)
+    def normal_on_facets(self, state, exits=None, facets=slice(None)) -> np.ndarray:
+        """(2, F): U(m_e) . n_e on `facets` (default all), the same seen from both cells of the facet."""
+        a = np.einsum("ij,ij->i", self.at_points(self.domain.midpoint[facets], state.t), self.domain.normal[facets])
         return np.stack([a, a])
 
 
@@ -136,10 +136,11 @@ class ExitsVelocity:
         cell = self.domain.locate(xy)
         return np.where((cell >= 0)[:, None], self.cells(exits)[np.maximum(cell, 0)], 0.0)
 
-    def normal_on_facets(self, state, exits) -> np.ndarray:
-        """(2, F): U_K . n_e for K = f2t[0] and K = f2t[1] (f2t[0] again on the boundary)."""
-        k0, k1 = self.domain.f2t
-        n, cells = self.domain.normal, self.cells(exits)
+    def normal_on_facets(self, state, exits, facets=slice(None)) -> np.ndarray:
+        """(2, F): U_K . n_e on `facets` (default all) for K = f2t[0] and K = f2t[1] (f2t[0] again on the
+        boundary)."""
+        k0, k1 = self.domain.f2t[0][facets], self.domain.f2t[1][facets]
+        n, cells = self.domain.normal[facets], self.cells(exits)
         return np.stack([np.einsum("ij,ij->i", cells[k], n) for k in (k0, np.where(k1 >= 0, k1, k0))])
 
 

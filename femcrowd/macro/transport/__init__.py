@@ -2,7 +2,7 @@
 
 Every scheme is built as ``Scheme(domain, exits, normal_velocity, potential=None)`` (potential: a
 cell field decreasing downstream, when U has one) and offers ``step(rho, dt) -> (rho~, outflow per
-exit)``, ``facet_flux(rho, dt)`` (the mass each facet carries in that step, for measurement lines;
+exit)``, ``facet_flux(rho, dt, facets)`` (the mass each facet carries in that step, for measurement lines;
 computed only when asked), ``max_dt`` (the CFL-1 step of the upwind scheme for this U) and
 ``max_cfl`` (the largest fraction of it the scheme accepts). ``TRANSPORTS`` is the one list of
 schemes: ``[scheme] transport`` of a case takes its keys. ``LWRTransport`` (the fluxes of a speed

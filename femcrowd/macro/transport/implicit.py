@@ -49,10 +49,10 @@ class ImplicitUpwindTransport(UpwindTransport):
         np.maximum(rho_t, 0.0, out=rho_t)  # the inverse is >= 0: only round-off is clipped
         return Prediction(rho_t, dt * (self.exit_rate @ rho_t), self._carried(rho_t, dt, self.capped))
 
-    def facet_flux(self, rho: np.ndarray, dt: float) -> np.ndarray:
-        """The mass each facet carries in the step of rho by dt: the upwind fluxes of the new density rho~
-        (for measurement lines; it solves the step again, so step() keeps its cost when nobody measures)."""
-        return self._carried(self.step(rho, dt).rho, dt)
+    def facet_flux(self, rho: np.ndarray, dt: float, facets=slice(None)) -> np.ndarray:
+        """The mass each facet (of `facets`) carries in the step of rho by dt: the upwind fluxes of the new density
+        rho~ (for measurement lines; it solves the step again, so step() keeps its cost when nobody measures)."""
+        return self._carried(self.step(rho, dt).rho, dt, facets)
 
     def _factorise(self, dt):
         M = sp.identity(self.domain.ncells, format="csr") - sp.diags(dt / self.domain.area) @ self.flux

@@ -56,20 +56,22 @@ class LWRTransport(UpwindTransport):
         self.capped_flows = np.flatnonzero(position[self.flow_facet] >= 0)
         self.capped_position = position[self.flow_facet[self.capped_flows]]
         self.max_dt = joint_max_dt(domain, [self])
+        self._flows_across = {}   # per set of facets (measurement lines): their flows and where they go
 
-    def flows(self, rho, total=None):
-        """The mass rate of this population along each flow (sender -> receiver); ``total``: the density of
-        all populations, which the speed law sees (default: rho, one population)."""
+    def flows(self, rho, total=None, which=slice(None)):
+        """The mass rate of this population along each flow (of `which`, default all; sender -> receiver);
+        ``total``: the density of all populations, which the speed law sees (default: rho, one population)."""
         total = rho if total is None else total
         seen = np.append(total, 0.0)   # the outside is empty
+        sender, receiver = self.sender[which], self.receiver[which]
         if self.godunov:
-            flux = np.minimum(self.law.demand(seen[self.sender]), self.law.supply(seen[self.receiver]))
+            flux = np.minimum(self.law.demand(seen[sender]), self.law.supply(seen[receiver]))
         else:
-            flux = seen[self.sender] * self.law(seen[self.receiver])
+            flux = seen[sender] * self.law(seen[receiver])
         if total is not rho:   # this population's share of the sender's flux
             with np.errstate(invalid="ignore", divide="ignore"):
-                flux *= np.where(total[self.sender] > 0, rho[self.sender] / total[self.sender], 0.0)
-        return flux * self.rate
+                flux *= np.where(total[sender] > 0, rho[sender] / total[sender], 0.0)
+        return flux * self.rate[which]
 
     def step(self, rho, dt, total=None) -> Prediction:
         """rho~ of this population, the mass that left through each exit during dt and the net mass through
@@ -86,10 +88,20 @@ class LWRTransport(UpwindTransport):
                                    len(self.capped))
         return Prediction(rho_t, evacuated, through)
 
-    def facet_flux(self, rho, dt, total=None):
-        """The mass each facet carries f2t[0] -> f2t[1] in the step of rho by dt (measurement lines)."""
-        flux = self.flows(rho, total)
-        return dt * np.bincount(self.flow_facet, self.flow_sign * flux, len(self.out0))
+    def facet_flux(self, rho, dt, total=None, facets=slice(None)):
+        """The mass each facet (of `facets`) carries f2t[0] -> f2t[1] in the step of rho by dt (measurement lines);
+        only the flows across these facets are evaluated."""
+        every = np.arange(len(self.out0))[facets]
+        key = every.tobytes()
+        if key not in self._flows_across:
+            unique, inverse = np.unique(every, return_inverse=True)
+            position = np.full(len(self.out0), -1)
+            position[unique] = np.arange(len(unique))
+            which = np.flatnonzero(position[self.flow_facet] >= 0)
+            self._flows_across[key] = which, position[self.flow_facet[which]], len(unique), inverse
+        which, position, n, inverse = self._flows_across[key]
+        moved = np.bincount(position, self.flow_sign[which] * self.flows(rho, total, which), n)
+        return dt * moved[inverse]
 
 
 def joint_max_dt(domain, schemes) -> float:

@@ -97,13 +97,13 @@ class MUSCLTransport(UpwindTransport):
         np.maximum(new, 0.0, out=new)
         return Prediction(new, dt * (self.exit_flux @ f0), dt * net[self.capped])
 
-    def facet_flux(self, rho: np.ndarray, dt: float) -> np.ndarray:
-        """The mass each facet carries in the step of rho by dt (the mean of the stages' fluxes), for
-        measurement lines: it repeats the stages, so step() keeps its cost when nobody measures."""
+    def facet_flux(self, rho: np.ndarray, dt: float, facets=slice(None)) -> np.ndarray:
+        """The mass each facet (of `facets`) carries in the step of rho by dt (the mean of the stages' fluxes),
+        for measurement lines: it repeats the stages, so step() keeps its cost when nobody measures."""
         net = self._net(rho, dt)[0]
         if self.stages == 1:
-            return dt * net
-        return 0.5 * dt * (net + self._net(self._euler(rho, dt)[0], dt)[0])
+            return dt * net[facets]
+        return 0.5 * dt * (net + self._net(self._euler(rho, dt)[0], dt)[0])[facets]
 
     def step(self, rho: np.ndarray, dt: float) -> Prediction:
         """rho~ (SSP-RK2, or one Euler stage), the mass that left through each exit during dt and the net

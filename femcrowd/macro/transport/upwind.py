@@ -94,10 +94,10 @@ class UpwindTransport:
                 rho_t += rho
         return Prediction(rho_t, dt * (self.exit_rate @ rho), self._carried(rho, dt, self.capped))
 
-    def facet_flux(self, rho: np.ndarray, dt: float) -> np.ndarray:
-        """The mass each facet carries f2t[0] -> f2t[1] (out of the domain through an exit) in the step of
-        rho by dt that step() makes (for measurement lines; step() does not compute it)."""
-        return self._carried(rho, dt)
+    def facet_flux(self, rho: np.ndarray, dt: float, facets=slice(None)) -> np.ndarray:
+        """The mass each facet (of `facets`) carries f2t[0] -> f2t[1] (out of the domain through an exit) in the
+        step of rho by dt that step() makes (for measurement lines; step() does not compute it)."""
+        return self._carried(rho, dt, facets)
 
     def _carried(self, rho, dt, facets=slice(None)):
         """The upwind fluxes of rho across `facets` over dt, f2t[0] -> f2t[1]."""
