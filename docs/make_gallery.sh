@@ -3,31 +3,33 @@
 #   bash docs/make_gallery.sh            (under a minute on 2 cores)
 #   bash docs/make_gallery.sh extensions (the populations and the bottleneck, about 2 minutes)
 # Runs room, room-obstacles and two-exits (or the cases of the extensions) into $WORK (default
-# /tmp/femcrowd-gallery), draws them with `femcrowd plot`, and copies the pictures shown in the
-# gallery to docs/gallery/ under stable names: <case>_<field>_<time>s.png, <case>_curves.png,
-# <case>_density.gif.
+# results/gallery), draws them with `femcrowd plot`, and copies the pictures shown in the gallery to
+# $PICTURES under stable names: <case>_<field>_<time>s.png, <case>_curves.png, <case>_density.gif.
+# $PICTURES defaults to results/gallery/pictures, outside the tracked tree; to replace the pictures of
+# the gallery: PICTURES=docs/gallery bash docs/make_gallery.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
-WORK=${WORK:-/tmp/femcrowd-gallery}
+WORK=${WORK:-results/gallery}
+PICTURES=${PICTURES:-results/gallery/pictures}
 FEMCROWD=${FEMCROWD:-femcrowd}
 SET=${1:-basic}
-mkdir -p "$WORK" docs/gallery
+mkdir -p "$WORK" "$PICTURES"
 
 gallery() {  # NAME "PLOT OPTIONS" ITEM...; ITEM = FIELD@TIME (the picture nearest TIME s) | curves | animation
     local name=$1 options=$2 plots="$WORK/$1-plots" item field t
     shift 2
-    rm -f "docs/gallery/${name}"_*
+    rm -f "$PICTURES/${name}"_*
     # shellcheck disable=SC2086  # the run options are words
     "$FEMCROWD" run "cases/$name" --out "$WORK/$name" -q ${RUN:-}
     # shellcheck disable=SC2086  # the options are words
     "$FEMCROWD" plot "$WORK/$name" -o "$plots" -q $options
     for item in "$@"; do
         case $item in
-            curves) cp "$plots/curves.png" "docs/gallery/${name}_curves.png" ;;
-            animation) cp "$plots/density.gif" "docs/gallery/${name}_density.gif" ;;
+            curves) cp "$plots/curves.png" "$PICTURES/${name}_curves.png" ;;
+            animation) cp "$plots/density.gif" "$PICTURES/${name}_density.gif" ;;
             *@*)
                 field=${item%@*} t=${item#*@}
-                cp "$plots/${field}_t$(printf %04d "$t")"*.png "docs/gallery/${name}_${field}_${t}s.png" ;;
+                cp "$plots/${field}_t$(printf %04d "$t")"*.png "$PICTURES/${name}_${field}_${t}s.png" ;;
         esac
     done
 }
@@ -44,4 +46,4 @@ else  # docs/extensions.md: each population in its own colour map; the micro run
     RUN="--set time.end=20" gallery two-groups-micro "--times 20 --no-animation" populations@20
     RUN="--set time.end=20" gallery bottleneck-micro "--times 10 --no-animation" discs@10
 fi
-ls -l docs/gallery
+ls -l "$PICTURES"
