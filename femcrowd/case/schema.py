@@ -170,7 +170,8 @@ SCHEMA = {
         "lines": Key([], "table_array", "counting lines ([[measure.lines]]): flow and cumulative count from left "
                      "to right of from -> to, in measurements.csv",
                      items={
-                         "name": Key(REQUIRED, "name", "the line's name (columns <name>_flow, <name>_count)"),
+                         "name": Key(REQUIRED, "name", "the line's name (columns <name>_flow, <name>_count; discs: "
+                                     "<name>_passed)"),
                          "from": Key(REQUIRED, "point", "first end [x, y] (m)"),
                          "to": Key(REQUIRED, "point", "second end [x, y] (m)"),
                      }),

@@ -12,7 +12,9 @@ Lines count what crosses them from the left of from -> to to its right, as PedPy
   lies within one cell of the line: a conservative count (mass moves from one side of the
   staircase to the other), shifted in time by at most the time the crowd takes to cross one cell.
 - Micro: the signed crossings of the segments q^n -> q^{n+1} of the discs (those that leave
-  through an exit included).
+  through an exit included); and, as PedPy's N-t curve counts them, the discs that have crossed the line
+  at least once in either direction (``<line>_passed``, each disc at its first crossing; a move that ends
+  on the line crosses it at the next move).
 
 Areas give the mean density (over the area's part inside the domain), the mean speed of the
 people in it (density-weighted) and the maximum pressure of the cells or discs in it. Macro cells
@@ -120,9 +122,10 @@ def overlap(domain: Domain, polygon):
     return near[keep], weights[keep]
 
 
-def measurement_columns(lines, areas) -> list:
-    """The columns of measurements.csv: time, per line flow and count, per area density, speed, pressure."""
-    names = ["time"] + [f"{line.name}_{q}" for line in lines for q in ("flow", "count")]
+def measurement_columns(lines, areas, line_columns=("flow", "count")) -> list:
+    """The columns of measurements.csv: time, per line flow and count (and passed, discs), per area density,
+    speed, pressure."""
+    names = ["time"] + [f"{line.name}_{q}" for line in lines for q in line_columns]
     names += [f"{area.name}_{q}" for area in areas for q in ("density", "speed", "pressure")]
     return [Column(name) for name in names]
 
@@ -198,8 +201,9 @@ class MicroMeasurements:
 
     def __init__(self, lines, areas, rho_max: float):
         self.lines, self.areas, self.rho_max = lines, areas, rho_max
-        self.recorder = Recorder(measurement_columns(lines, areas))
+        self.recorder = Recorder(measurement_columns(lines, areas, ("flow", "count", "passed")))
         self.count = np.zeros(len(lines))
+        self.crossed = np.zeros((0, len(lines)), bool)   # per disc id and line: has it crossed the line yet
         self.segments = np.array([[line.a, line.b] for line in lines]).reshape(-1, 2, 2)
 
     def start(self, sim) -> None:
@@ -208,23 +212,31 @@ class MicroMeasurements:
                                     np.zeros(len(sim.q))))
 
     def snapshot(self) -> dict:
-        return {"count": self.count.copy(), **{f"row.{k}": np.asarray(v) for k, v in self.recorder.rows.items()}}
+        return {"count": self.count.copy(), "crossed": self.crossed.copy(),
+                **{f"row.{k}": np.asarray(v) for k, v in self.recorder.rows.items()}}
 
     def restore(self, data: dict) -> None:
-        self.count = data["count"].copy()
+        self.count, self.crossed = data["count"].copy(), data["crossed"].copy()
         self.recorder.restore({k[4:]: v for k, v in data.items() if k.startswith("row.")})
 
-    def record(self, before: np.ndarray, sim, info) -> None:
-        """A step's row from the centres before it and after the move (sim.moved_to, before removals)."""
-        through = segment_crossings(before, sim.moved_to, self.segments).sum(axis=0, dtype=int)
+    def record(self, before: np.ndarray, ids: np.ndarray, sim, info) -> None:
+        """A step's row from the centres and ids of the discs before it and their centres after the move
+        (sim.moved_to, before removals)."""
+        crossings = segment_crossings(before, sim.moved_to, self.segments)
+        through = crossings.sum(axis=0, dtype=int)
         self.count += through
+        if len(ids) and ids.max() >= len(self.crossed):
+            self.crossed = np.pad(self.crossed, ((0, 2 * ids.max() + 1 - len(self.crossed)), (0, 0)))
+        self.crossed[ids] |= crossings != 0
         self.recorder.add(self._row(sim.t, through, info.dt, info.q, info.r, info.u, info.pressure))
 
     def _row(self, t, through, dt, q, r, u, pressure) -> dict:
         row = {"time": t}
+        passed = self.crossed.sum(axis=0)
         for k, line in enumerate(self.lines):
             row[f"{line.name}_flow"] = through[k] / dt if dt > 0 else 0.0
             row[f"{line.name}_count"] = self.count[k]
+            row[f"{line.name}_passed"] = passed[k]
         for area in self.areas:
             inside = shapely.contains_xy(area.polygon, q[:, 0], q[:, 1]) if len(q) else np.zeros(0, bool)
             size = area.weights.sum()

@@ -136,14 +136,14 @@ class MicroModel:
                 q_in, r_in, population = self.sources(sim.t, sim.tau, sim.q, sim.r)
                 sim.add(q_in, r_in)
                 self.desired.population = self.population = np.concatenate([self.population, population])
-            before = sim.q if self.measurements is not None else None
+            before, ids = sim.q, sim.ids   # the discs before the step (the step makes new arrays)
             info = sim.step()
         if until - sim.t < 1e-12 * max(1.0, until):
             sim.t = until
         sim.tau = self.tau
         if self.measurements is not None:
             with self.timers("measurements"):
-                self.measurements.record(before, sim, info)
+                self.measurements.record(before, ids, sim, info)
         if self.trajectories is not None:
             self.trajectories.step(sim.t, info.dt, info.ids, info.q, info.u)
         self.last = info
