@@ -4,10 +4,17 @@ The CLI prints it as a single line and exits non-zero, without a traceback.
 """
 
 
+#: the most characters of a value that a message shows (a 200,000-term expression is not echoed whole)
+SHOWN = 200
+
+
 class InputError(Exception):
-    """Bad user input: names the file, the key and the offending value."""
+    """Bad user input: names the file, the key and the offending value (its start, if it is long)."""
 
     def __init__(self, file, key, value, message):
         self.file, self.key, self.value, self.message = str(file), key, value, message
-        where = self.file if key is None else f"{self.file}: {key} = {value!r}"
+        shown = repr(value)
+        if len(shown) > SHOWN:
+            shown = f"{shown[:SHOWN]}... ({len(str(value))} characters)"
+        where = self.file if key is None else f"{self.file}: {key} = {shown}"
         super().__init__(f"{where}: {message}")

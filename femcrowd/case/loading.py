@@ -22,7 +22,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import InputError
-from ..expressions import Expression
 from .schema import REQUIRED, SCHEMA, NamedTables, check_value
 
 #: the name of a table of a table of tables ([populations.<name>]): it names columns and arrays
@@ -74,10 +73,6 @@ class Case:
                                                     for key, value in v.items() if value is not None)
                   for k, v in config.items() if isinstance(v, dict)]
         return "\n".join(head + top) + "\n" + "".join(tables)
-
-    def expression(self, section, key):
-        """The parsed Expression of a number-or-expression key."""
-        return Expression(self.config[section][key])
 
 
 def load_case(case_dir, overrides=()) -> Case:

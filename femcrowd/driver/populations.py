@@ -43,43 +43,35 @@ def desired_velocity(case: Case, domain: Domain, boundary: Boundary, spec=None, 
     key = key or (lambda name: f"velocity.{name}")
     if spec["type"] == "field":
         where = np.vstack([domain.centroid, domain.midpoint])
-        ux, uy = (_checked(Expression(spec[k]), where, case, key(k), spec[k]) for k in ("ux", "uy"))
+        ux, uy = (Expression(spec[k], origin=(case.file, key(k))) for k in ("ux", "uy"))
+        for u in (ux, uy):
+            u(*where.T)   # once at t = 0: a value that is not finite is refused at load time
         return FieldVelocity(domain, ux, uy)
     if not domain.exit_group:
         raise InputError(case.file, key("type"), "exits",
                          "needs at least one exit (set boundary.exits) or use type = 'field'")
-    speed = Expression(spec["speed"])
+    speed = Expression(spec["speed"], origin=(case.file, key("speed")))
     if speed.depends_on_time:
         raise InputError(case.file, key("speed"), spec["speed"],
                          "must not depend on t for type = 'exits'")
-    values = _checked(speed, domain.centroid, case, key("speed"), spec["speed"])(*domain.centroid.T)
+    values = speed(*domain.centroid.T)
     if values.min() < 0:
         raise InputError(case.file, key("speed"), spec["speed"],
                          f"is negative ({values.min():.3g}) somewhere: people would walk away from the exits "
                          "(for such a scene give U itself: type = 'field')")
     if case["velocity"]["route"] == "congestion":
-        law = SpeedLaw(spec["speed_law"], case["model"]["rho_max"], spec["push"])
+        law = SpeedLaw(spec["speed_law"], case["model"]["rho_max"], spec["push"], (case.file, key("speed_law")))
         return CongestionVelocity(domain, speed, targets, law, case["velocity"]["route_every"])
     velocity = ExitsVelocity(domain, speed, targets)
     velocity.cells(boundary.at(0.0))
     return velocity
 
 
-def _checked(expr, xy, case, key, value):
-    """Evaluate once to reject non-finite values at load time; return the expression."""
-    values = expr(xy[:, 0], xy[:, 1], 0.0)
-    if not np.all(np.isfinite(values)):
-        raise InputError(case.file, key, value, "gives non-finite values on the mesh")
-    return expr
-
-
 def initial_density(case: Case, domain: Domain, source=None, key="initial.density") -> np.ndarray:
     """Cell averages of the initial density (or of `source`, a population's, named `key`), scaled by rho_max."""
     rho_max = case["model"]["rho_max"]
     source = case["initial"]["density"] if source is None else source
-    density = domain.cell_average(Expression(source))
-    if not np.all(np.isfinite(density)):
-        raise InputError(case.file, key, source, "gives non-finite values on the mesh")
+    density = domain.cell_average(Expression(source, origin=(case.file, key)))
     subdomains = domain.mesh.subdomains or {}
     for name, value in case["initial"]["regions"].items() if key == "initial.density" else ():
         if name not in subdomains:
@@ -100,8 +92,9 @@ def build_populations(case: Case, domain: Domain, boundary: Boundary) -> list:
     rho_max = case["model"]["rho_max"]
     if not case["populations"]:
         velocity = desired_velocity(case, domain, boundary)
-        return [Population(CROWD, velocity, SpeedLaw(case["velocity"]["speed_law"], rho_max,
-                                                      case["velocity"]["push"]))]
+        law = SpeedLaw(case["velocity"]["speed_law"], rho_max, case["velocity"]["push"],
+                       (case.file, "velocity.speed_law"))
+        return [Population(CROWD, velocity, law)]
     initial = case["initial"]
     if initial["density"] != 0.0 or initial["regions"]:
         key = "initial.density" if initial["density"] != 0.0 else "initial.regions"
@@ -124,7 +117,8 @@ def build_populations(case: Case, domain: Domain, boundary: Boundary) -> list:
                 raise InputError(case.file, f"{table}.exits", targets,
                                  f"{what} (boundary.exits: {', '.join(domain.exit_names) or 'none'})")
         velocity = desired_velocity(case, domain, boundary, merged, key, targets)
-        populations.append(Population(name, velocity, SpeedLaw(merged["speed_law"], rho_max, merged["push"])))
+        law = SpeedLaw(merged["speed_law"], rho_max, merged["push"], (case.file, key("speed_law")))
+        populations.append(Population(name, velocity, law))
     return populations
 
 

@@ -45,10 +45,11 @@ class SpeedLaw:
     """f(rho) on [0, 1] (rho in units of rho_max): the factor of the desired speed, and the LWR flux
     g(r) = r f(r) with its demand and supply (Lebacque 1996) when g is unimodal."""
 
-    def __init__(self, spec, rho_max: float = 1.0, push: float = 0.0):
+    def __init__(self, spec, rho_max: float = 1.0, push: float = 0.0, origin=None):
         """spec: one of NAMES or an expression in rho; rho_max: the case's saturation density (persons/m^2
-        for "weidmann"); push: the least f (people still push at push x their desired speed). Raises
-        LawError for a law outside [0, 1], not finite or increasing somewhere."""
+        for "weidmann"); push: the least f (people still push at push x their desired speed); origin: the
+        (file, key) of the case that an expression's errors name (femcrowd.expressions). Raises LawError for
+        a law outside [0, 1], not finite or increasing somewhere."""
         self.spec, self.push = spec, push
         if spec == "constant":
             self._f = lambda r: np.ones_like(r)
@@ -59,7 +60,7 @@ class SpeedLaw:
             self._f = lambda r: np.where(r > 0, -np.expm1(-c * (1.0 / np.maximum(r, 1e-300) - 1.0)), 1.0)
         else:
             try:
-                expression = Expression(spec, variables=("rho",))
+                expression = Expression(spec, variables=("rho",), origin=origin)
             except ExpressionError as err:
                 raise LawError(str(err)) from None
             self._f = lambda r: expression.of(rho=r)
@@ -68,7 +69,10 @@ class SpeedLaw:
             self._f = lambda r: np.maximum(law(r), push)
         r = np.linspace(0.0, 1.0, SAMPLES)
         with np.errstate(all="ignore"):
-            f = self._f(r)
+            try:
+                f = self._f(r)
+            except ExpressionError as err:
+                raise LawError(f"f(rho) {err}") from None
         bad = np.flatnonzero(~np.isfinite(f) | (f < 0) | (f > 1))
         if bad.size:
             raise LawError(f"f(rho) = {f[bad[0]]:.6g} at rho = {r[bad[0]]:.6g}: not a finite number in [0, 1]")

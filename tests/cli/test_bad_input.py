@@ -1,7 +1,9 @@
 """Malformed cases and meshes through the real CLI: one line on stderr naming file, key and value,
 exit code 2, no traceback, and a pre-existing output directory left exactly as it was."""
 
+import json
 import subprocess
+import time
 from pathlib import Path
 
 import pytest
@@ -110,9 +112,9 @@ BAD = {
     "region density out of range": (BASE + "\n[initial.regions]\ndomain = 2.0\n", GOOD_MESH, (),
                                     "initial.regions.domain", "2.0", "outside"),
     "non-finite density": (edit("density = 0.5", 'density = "log(x - 5)"'), GOOD_MESH, (), "initial.density",
-                           "log(x - 5)", "non-finite"),
+                           "log(x - 5)", "gives nan, not a finite number at 512 of 512 points"),
     "non-finite velocity": (edit('type = "exits"', 'type = "field"\nux = "1 / (x - x)"'), GOOD_MESH, (),
-                            "velocity.ux", "1 / (x - x)", "non-finite"),
+                            "velocity.ux", "1 / (x - x)", "gives inf, not a finite number at 88 of 88 points"),
     "attribute access": (edit("density = 0.5", 'density = "x.real"'), GOOD_MESH, (), "initial.density", "x.real",
                          "not allowed"),
     "import": (edit("density = 0.5", "density = \"__import__('os').system('echo owned')\""), GOOD_MESH, (),
@@ -180,6 +182,44 @@ BAD = {
                                 GOOD_MESH, (), "measure.areas[0].polygon", "[[2.0, 2.0]", "outside the domain"),
 }
 
+
+
+def with_expression(key, source):
+    """BASE with `source` as the expression of `key`: initial.density, velocity.speed, velocity.speed_law,
+    velocity.ux (type "field") or populations.a.density (one population)."""
+    if key == "initial.density":
+        return edit("density = 0.5", f'density = "{source}"')
+    if key == "populations.a.density":
+        return edit("[initial]\ndensity = 0.5\n", f'[populations.a]\ndensity = "{source}"\n')
+    if key == "velocity.ux":
+        return edit('type = "exits"', f'type = "field"\nux = "{source}"')
+    return edit('type = "exits"', f'type = "exits"\n{key.split(".")[1]} = "{source}"')
+
+
+#: id -> (key, expression, words of the message): refused at once by `femcrowd run` and `femcrowd info`
+#: (10**10**10, which never ended, is tested in real processes below)
+BAD_EXPRESSIONS = {
+    "1/0": ("initial.density", "1/0", "gives inf, not a finite number (a division by zero or an overflow)"),
+    "1%0": ("initial.density", "1%0", "gives nan, not a finite number (0/0, a % 0"),
+    "10.0**1000": ("velocity.speed", "10.0**1000", "gives inf, not a finite number"),
+    "(-1)**0.5": ("velocity.ux", "(-1)**0.5", "gives nan, not a finite number"),
+    "2**2**2**2**2": ("populations.a.density", "2**2**2**2**2", "gives inf, not a finite number"),
+    "1/x at nodes": ("velocity.ux", "1/x",
+                     "gives inf, not a finite number at 4 of 88 points, first at x = 0, y = 0.125"),
+    "speed law 1%0": ("velocity.speed_law", "1 - 1 % 0", "f(rho) gives nan, not a finite number"),
+    "speed law with a pole": ("velocity.speed_law", "1 - 0.1 / (rho - 0.5)",
+                              "f(rho) gives -inf, not a finite number at 1 of 4097 points, first at rho = 0.5"),
+    "too many arguments": ("initial.density", "sqrt(x, y)", "sqrt() takes 1 argument, not 2"),
+    "too few arguments": ("velocity.speed_law", "where(rho < 1)", "where() takes 3 arguments, not 1"),
+    "unknown function": ("velocity.speed", "gamma(x)", "function 'gamma' is not allowed"),
+    "unknown name": ("populations.a.density", "z + 1", "unknown name 'z'"),
+    "integer beyond floats": ("initial.density", "1" * 400, "a number is beyond the range of floats"),
+    "200,000-term sum": ("initial.density", "+".join(["x"] * 200000),
+                         "is 399999 characters long: an expression may have at most 10000"),
+    "50,000 nested not": ("velocity.speed", "not " * 50000 + "x", "is 200001 characters long"),
+    "nested too deeply": ("velocity.ux", "-" * 5000 + "x", "is nested too deeply"),
+    "201-term sum": ("initial.density", "+".join(["x"] * 201), "is nested too deeply"),
+}
 
 def write_case(tmp_path, toml, mesh):
     case = tmp_path / "case"
@@ -296,3 +336,67 @@ def test_no_traceback_reaches_the_terminal(tmp_path):
         assert stdout == "", (name, stdout)
         assert_refused(stderr, here / "case" / "case.toml", key, value, words)
         assert not (here / "out").exists()
+
+
+@pytest.mark.parametrize("command", ["run", "info"])
+@pytest.mark.parametrize("name", list(BAD_EXPRESSIONS))
+def test_bad_expression_is_refused_at_once(tmp_path, name, command):
+    """`femcrowd run` (a previous run left as it was) and `femcrowd info`: exit code 2, one line naming file, key
+    and expression (its start when long), in well under 10 s; never a traceback, a hang or a MemoryError."""
+    key, source, words = BAD_EXPRESSIONS[name]
+    start = time.perf_counter()
+    if command == "run":
+        assert_run_refused(tmp_path, with_expression(key, source), GOOD_MESH, (), key, source[:150], words)
+    else:
+        case = write_case(tmp_path, with_expression(key, source), GOOD_MESH)
+        result = CliRunner().invoke(main, ["info", str(case)])
+        assert result.exit_code == 2, result.output
+        assert result.stdout == ""
+        assert_refused(result.stderr, case / "case.toml", key, source[:150], words)
+    assert time.perf_counter() - start < 10
+
+
+def test_big_powers_are_refused_at_once(tmp_path):
+    """10**10**10 used to compute a ten-billion-digit integer (100 % CPU, growing memory, Ctrl-C ignored, for
+    ever) in `femcrowd run` and `femcrowd info`. The installed command, real processes in parallel (each key
+    once): one line, exit code 2, at once (the bound leaves room for interpreters starting on a busy machine)."""
+    procs = {}
+    for command, keys in (("run", ("initial.density", "velocity.speed_law")), ("info", ("velocity.speed",
+                                                                                        "velocity.ux"))):
+        for key in keys:
+            here = tmp_path / f"{key}-{command}"
+            here.mkdir()
+            case = write_case(here, with_expression(key, "10**10**10"), GOOD_MESH)
+            out = ["--out", str(here / "out"), "-q"] if command == "run" else []
+            procs[here] = (key, subprocess.Popen([str(FEMCROWD), command, str(case), *out], stdout=subprocess.PIPE,
+                                                 stderr=subprocess.PIPE, text=True))
+    start = time.perf_counter()
+    try:
+        for here, (key, proc) in procs.items():
+            stdout, stderr = proc.communicate(timeout=max(0.1, 30 - (time.perf_counter() - start)))
+            assert proc.returncode == 2, (here, stderr)
+            assert stdout == ""
+            assert_refused(stderr, here / "case" / "case.toml", key, "10**10**10", "gives inf, not a finite number")
+            assert not (here / "out").exists()
+    finally:
+        for _, proc in procs.values():
+            proc.kill()
+            proc.wait()
+
+
+def test_an_expression_of_time_that_stops_being_finite_stops_the_run(tmp_path):
+    """U finite at t = 0 (checked at load time), nan from the second step on: the run used to go on with t = nan
+    and say "completed". Now it stops with one line naming the time, exit code 2, summary "failed", and the
+    history written until then (finite) is kept."""
+    source = "where(t > 0, log(-1), -1)"
+    case = write_case(tmp_path, with_expression("velocity.ux", source).replace("end = 0.1", "end = 1"), GOOD_MESH)
+    out = tmp_path / "out"
+    result = CliRunner().invoke(main, ["run", str(case), "--out", str(out), "-q"])
+    assert result.exit_code == 2, result.output
+    assert_refused(result.stderr, case / "case.toml", "velocity.ux", source,
+                   "gives nan, not a finite number at 56 of 56 points, first at x = 0.125, y = 0, t = 0.0625")
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"].startswith("failed: InputError: ") and "velocity.ux" in summary["status"]
+    rows = [line.split(",") for line in (out / "history.csv").read_text().splitlines()[1:]]
+    assert [float(row[0]) for row in rows] == [0.0, 0.0625]
+    assert all(value not in ("nan", "inf") for row in rows for value in row)
