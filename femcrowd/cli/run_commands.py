@@ -24,6 +24,7 @@ def run(case_dir, overrides, out, force, quiet, threads, resume):
       femcrowd run cases/room --resume            (continue after Ctrl-C)
     """
     from ..driver import run as run_case
+    from ..driver.remaining import remaining_text
 
     case = load_case(case_dir, overrides)
     summary = run_case(case, out, force, quiet, threads=threads, resume=resume).summary
@@ -35,6 +36,7 @@ def run(case_dir, overrides, out, force, quiet, threads, resume):
         click.echo(f"{summary['status']}: {summary['steps']} steps to t = {summary['final_time']:.4g} s "
                    f"in {summary['timing']['wall']:.1f} s; mass error {summary['mass_error']:.1e}; "
                    f"density in [{summary['min_density_ever']:.3g}, {summary['max_density_ever']:.6g}]")
+    click.echo(f"left inside: {remaining_text(summary['remaining'])}")
     if summary["evacuation_time"] is not None:
         click.echo(f"evacuation time: {summary['evacuation_time']:.4g} s")
     click.echo(f"results: {summary['output_dir']}")

@@ -68,6 +68,7 @@ class Controller:
                         sink.checkpoint(frames)
                         raise KeyboardInterrupt
                     if emptied:
+                        bar.total = model.t   # the crowd is out: the bar ends here, not at time.end
                         break
         finally:
             bar.close()

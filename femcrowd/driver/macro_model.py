@@ -14,6 +14,7 @@ from .model import SOURCE_COLUMNS, Evacuation, landing
 from .output import triangle_frame
 from .populations import initial_densities
 from .recorder import Column
+from .remaining import Regions
 from .scene import Scene, check_transport_cfl
 from .sources import macro_inflow
 
@@ -116,6 +117,8 @@ class MacroModel:
             self.measurements.attach(self.solver, self.state)
         self.evacuation = Evacuation(case["time"]["stop_when_empty"], bool(domain.exit_group), self.sources,
                                      max((source.end for source in scene.sources), default=-np.inf))
+        self.regions = Regions(scene, self.state.populations)
+        self.regions.warn_trapped(self.state.density * domain.area * self.rho_max)
 
     @property
     def inflow(self) -> float:
@@ -236,4 +239,6 @@ class MacroModel:
         """What the summary adds to the recorder's entries."""
         return {"steps": self.state.steps,
                 "remaining_fraction": self.mass / self.initial_mass if self.initial_mass > 0 else 0.0,
-                "evacuation_time": self.evacuation.time, "projection_needed": self.solver.needs_projection}
+                "evacuation_time": self.evacuation.time, "projection_needed": self.solver.needs_projection,
+                "remaining": self.regions.remaining(self.t, np.pad(self.state.rho * self.domain.area * self.rho_max,
+                                                                   ((0, 0), (0, 1))), self.empty_mass * self.rho_max)}

@@ -23,6 +23,7 @@ from .model import SOURCE_COLUMNS, Evacuation, landing
 from .output import disc_frame
 from .populations import disc_populations, initial_densities
 from .recorder import Column
+from .remaining import Regions
 from .scene import Scene, initial_discs
 from .sources import micro_arrivals
 from .trajectories import TrajectoryFile
@@ -104,6 +105,8 @@ class MicroModel:
             self.trajectory_rate = case["output"]["trajectory_rate"]
         self.evacuation = Evacuation(case["time"]["stop_when_empty"], bool(domain.exit_group), self.sources,
                                      max((source.end for source in scene.sources), default=-np.inf))
+        self.regions = Regions(scene, self.names)
+        self.regions.warn_trapped(np.bincount(domain.locate(q) + 1, minlength=domain.ncells + 1)[1:])
         self.last = None   # the last step's StepInfo (positions, velocities, pressures of its discs)
         self.timers = Timer()
 
@@ -218,4 +221,9 @@ class MicroModel:
 
     def summary(self, recorded: dict) -> dict:
         """What the summary adds to the recorder's entries."""
-        return {"steps": self.sim.nstep, "tau": self.tau, "evacuation_time": self.evacuation.time}
+        sim, cells = self.sim, self.domain.ncells + 1
+        cell = self.domain.locate(sim.q)
+        where = np.where(cell < 0, cells - 1, cell)   # the last column: discs outside every cell
+        people = np.bincount(self.population[sim.ids] * cells + where, minlength=len(self.names) * cells)
+        return {"steps": sim.nstep, "tau": self.tau, "evacuation_time": self.evacuation.time,
+                "remaining": self.regions.remaining(sim.t, people.reshape(len(self.names), cells))}

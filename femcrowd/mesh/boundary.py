@@ -38,6 +38,10 @@ class Door:
     def is_open(self, t: float) -> bool:
         return self.spans is None or any(a <= t < b for a, b in self.spans)
 
+    def open_during(self, start: float, stop: float = np.inf) -> bool:
+        """Is the door open at some time in [start, stop)?"""
+        return self.spans is None or any(a < stop and start < b for a, b in self.spans)
+
     @property
     def capped(self) -> bool:
         return bool(np.isfinite(self.capacity))

@@ -12,11 +12,13 @@ Which exits are open at a time t is not a property of the floor plan: see
 """
 
 import difflib
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError
+from .checks import regions
 from .gmsh_io import read_mesh
 from .locate import PointLocator
 from .triangles import doubled_areas
@@ -70,6 +72,11 @@ class Domain:
     def h(self) -> float:
         """Largest facet length (the mesh size of convergence studies)."""
         return float(self.length.max())
+
+    @cached_property
+    def region(self) -> np.ndarray:
+        """The region of each cell: the connected parts of the floor plan, 0, 1, ... (mesh/checks.py)."""
+        return regions(self.f2t, self.ncells)[1]
 
     def cell_average(self, f, divisions=4, t=0.0):
         """Mean of f(x, y, t) over each cell: midpoint rule on the divisions^2 congruent

@@ -17,13 +17,14 @@ import numpy as np
 import skfem
 
 from ..errors import InputError
-from .triangles import doubled_areas
+from .checks import check_cracks, check_triangles
 
 _SOLID = {"tetra", "hexahedron", "wedge", "pyramid", "tetra10", "hexahedron20", "hexahedron27"}
 
 
 def read_mesh(path: Path, case_file) -> skfem.MeshTri:
-    """Read a gmsh .msh with meshio and check it is a planar, triangle-only, finite, non-degenerate mesh.
+    """Read a gmsh .msh with meshio and check it is a planar, triangle-only, finite mesh, without degenerate or
+    inverted triangles nor cracks (checks.py).
 
     meshio.gmsh.read is called directly: meshio.read prints to stdout and calls
     sys.exit when no reader accepts a file. skfem's reader would silently drop z
@@ -51,10 +52,9 @@ def read_mesh(path: Path, case_file) -> skfem.MeshTri:
     extent = float(np.ptp(points[:, :2], axis=0).max())
     if points.shape[1] > 2 and np.ptp(points[:, 2]) > 1e-12 * extent:
         fail("the mesh is not planar (z varies); femcrowd needs a 2D mesh")
+    check_triangles(points, np.concatenate([c.data for c in data.cells if c.type == "triangle"]), fail)
     mesh = _ordered_mesh(data)
-    twice_area = np.abs(doubled_areas(mesh.p.T, mesh.t.T))
-    if np.any(twice_area <= 1e-14 * extent ** 2):  # zero up to the round-off of the coordinates
-        fail(f"the mesh has {np.count_nonzero(twice_area <= 1e-14 * extent ** 2)} degenerate (zero-area) triangles")
+    check_cracks(mesh, fail)
     return mesh
 
 
