@@ -1,7 +1,7 @@
 """Floor plans to gmsh meshes (MSH 2.2) with named boundary groups.
 
-The plan (TOML, or a DXF drawing or WKT polygon) is read and checked by :mod:`femcrowd.mesh.plan`, where
-its format is documented.
+The plan (TOML, or a DXF drawing or WKT polygon) is read and checked by :mod:`femcrowd.mesh.plan`, its internal
+walls cut out by :mod:`femcrowd.mesh.partitions`; the format and its rules are docs/plans.md.
 
 Exits split the edge they lie on, and so do the ends of doors. The mesh has
 one physical line group per exit name and per door name, "wall" for every
