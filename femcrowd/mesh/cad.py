@@ -91,7 +91,7 @@ def read_plan(file, walls=None, obstacles=None, doors=None, size=0.2, exits=(), 
     except (OSError, UnicodeDecodeError) as err:
         raise InputError(file, None, None, f"cannot read the plan: {getattr(err, 'strerror', None) or err}") from None
     if text is not None:
-        unit = _unit(units or "m", None)
+        unit = _unit(units, None) if units else ("m (a WKT plan's default)", 1.0)
         data, origins = _from_wkt(file, text, unit[1])
         hint = "give the exits with --exit NAME=X0,Y0,X1,Y1, or --no-exits for a plan nobody leaves"
     else:
