@@ -1,6 +1,8 @@
 """``femcrowd new``: a commented case.toml for a mesh: the keys a new case sets, at their defaults (from the
-SCHEMA) and the commented-out options beside them; exits = the mesh's boundary groups not named wall* (interior
-line groups are offered a capacity). Every other key is in the case-format documentation."""
+SCHEMA) and the commented-out options beside them; exits = the mesh's boundary groups not named wall* nor
+entrance* (interior line groups are offered a capacity); a group named entrance* (mesh/plan.py is_entrance)
+becomes a ``[[sources]]`` entry; a mesh without an exit gets the desired velocity U = 0 to edit (not a
+direction made up for it). Every other key is in the case-format documentation."""
 
 import json
 import math
@@ -37,6 +39,18 @@ def new_case_file(case_dir) -> Path:
     return file
 
 
+def door_groups(domain):
+    """(exits, entrances, interior lines) of a mesh: its boundary groups not named wall* nor entrance*, those
+    named entrance* (mesh/plan.py is_entrance), and its groups of interior facets."""
+    from ..mesh.plan import is_entrance
+
+    groups = domain.statistics()["boundary_groups"]
+    inside = [name for name, facets in domain.groups.items() if len(facets) and domain.interior[facets].all()]
+    entrances = [name for name in groups if is_entrance(name) and name not in inside]
+    exits = [name for name in groups if not wall_like(name) and name not in inside and name not in entrances]
+    return exits, entrances, inside
+
+
 def write_new_case(file: Path, mesh_file, domain) -> None:
     """Write the case file ``file`` for the mesh ``mesh_file`` (its Domain ``domain``)."""
     case_dir, mesh_file = file.parent, Path(mesh_file)
@@ -49,8 +63,7 @@ def write_new_case(file: Path, mesh_file, domain) -> None:
 def _case_lines(case_dir, mesh_file, domain) -> list:
     """The lines of the case file: text, or (text, comment) pairs."""
     groups = domain.statistics()["boundary_groups"]
-    inside = [name for name, facets in domain.groups.items() if len(facets) and domain.interior[facets].all()]
-    exits = [name for name in groups if not wall_like(name) and name not in inside]
+    exits, entrances, inside = door_groups(domain)
     surfaces = [name for name in (domain.mesh.subdomains or {}) if not name.startswith("gmsh:")]
     (x0, y0), (x1, y1) = domain.points.min(axis=0), domain.points.max(axis=0)
     # about four walks across the floor at 1 m/s; the run stops earlier once everybody has left
@@ -66,7 +79,12 @@ def _case_lines(case_dir, mesh_file, domain) -> list:
                     ('# type = "field"', "or U given by expressions in x, y, t:"), '# ux = "-1"', '# uy = "0"']
     else:
         velocity = [('type = "field"', "the mesh has no exit: U given by expressions in x, y, t"),
-                    'ux = "1"', 'uy = "0"']
+                    ('ux = "0"', "people stand still until you give U, e.g. ux = \"1\""), 'uy = "0"']
+    sources = [line for name in entrances for line in (
+        "", ("[[sources]]", "people arriving through an entrance"),
+        (f"boundary = {toml_value(name)}", f"{groups[name]:.3g} m"),
+        ("flow = 0.5", "per metre per second, in the unit of rho_max x m/s (persons/(m s) with persons/m^2)"),
+        ("# start = 0.0", "s"), ("# end = 60.0", "s (default: time.end)"))]
     return [
         f"# femcrowd case written by `femcrowd new` for {mesh_file.name}.",
         "# Keys left out take their default (see the case-format documentation). Run it with",
@@ -87,6 +105,7 @@ def _case_lines(case_dir, mesh_file, domain) -> list:
         "", "[initial]",
         ("density = 0.5", 'unit of rho_max: number or expression in x, y, e.g. "0.8 * (x < 4)"'),
         ("# [initial.regions]", f"or per surface group ({', '.join(surfaces) or 'none'}): crowd = 0.9"),
+        *sources,
         "", "[time]",
         (f"end = {end:g}.0", f"s (the floor is {x1 - x0:.3g} m x {y1 - y0:.3g} m)"),
         (f'cfl = {_default("time", "cfl")}', "time step from the CFL number of the desired velocity"),

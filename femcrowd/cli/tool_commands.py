@@ -71,6 +71,11 @@ def _segment(value):
               help="Cell size near every exit (m), overriding the exits' own 'size' keys.")
 @click.option("--size", type=click.FloatRange(min=0, min_open=True), default=0.2, show_default=True, metavar="H",
               help="DXF and WKT plans: the cell size (m).")
+@click.option("--units", metavar="UNIT",
+              help="DXF and WKT plans: the drawing's length unit (mm, cm, dm, m, km, in, ft, yd). Default: the "
+                   "DXF's $INSUNITS (unitless: m); m for WKT.")
+@click.option("--wall-thickness", type=click.FloatRange(min=0, min_open=True), metavar="T",
+              help="DXF and WKT plans: thickness (m) given to the internal walls drawn as lines (default 0.1).")
 @click.option("--walls-layer", default="walls", show_default=True, help="DXF: the layer of the outline.")
 @click.option("--obstacles-layer", default="obstacles", show_default=True, help="DXF: the layer of the obstacles.")
 @click.option("--door-layers", default="exit,entrance", show_default=True, metavar="PREFIX[,PREFIX...]",
@@ -78,32 +83,36 @@ def _segment(value):
                    "entrances), one group per layer.")
 @click.option("--exit", "exits", multiple=True, metavar="NAME=X0,Y0,X1,Y1",
               help="DXF and WKT plans: a named boundary segment on the outline (repeatable).")
-def mesh(geometry, out, exit_size, size, walls_layer, obstacles_layer, door_layers, exits):
+@click.option("--no-exits", is_flag=True, help="Mesh a plan that has no exit (otherwise an error).")
+def mesh(geometry, out, exit_size, size, units, wall_thickness, walls_layer, obstacles_layer, door_layers, exits,
+         no_exits):
     """Mesh the floor plan GEOMETRY (.toml, .dxf or .wkt) with gmsh.
 
     A TOML floor plan gives the outer polygon, holes (polygons or circles),
-    named exit segments, named interior door lines ([[doors]]: a door between
-    two rooms, for a capacity) and the cell size (format:
-    femcrowd/mesh/plan.py and the shipped meshes/*.toml). A DXF drawing names them by layers:
-    the outline on the walls layer, obstacles on theirs, exits and
-    entrances on layers named exit*, entrance* (closed polylines, lines,
-    arcs, circles). A WKT file holds one POLYGON (JuPedSim's walkable
-    area), its exits given with --exit. The .msh has one boundary group
-    per exit name and "wall" for the rest, ready for a case (femcrowd new).
+    internal walls, named exit segments, named interior door lines and the
+    cell size. A DXF drawing names them by layers: the outline and the
+    internal walls on the walls layer, obstacles on theirs, exits and
+    entrances on layers named exit*, entrance*; its units are its $INSUNITS
+    or --units. A WKT file holds one POLYGON (JuPedSim's walkable area), its
+    exits given with --exit. A plan must have an exit (--no-exits otherwise)
+    and measure 1 m to 10 km across. The .msh has one boundary group per exit
+    and entrance name and "wall" for the rest, ready for a case (femcrowd
+    new). Drawing a plan: docs/plans.md.
 
     \b
     Examples:
       femcrowd mesh meshes/room_one_door.toml
       femcrowd mesh plan.toml -o /tmp/plan.msh --exit-size 0.05
-      femcrowd mesh plan.dxf --size 0.25 --walls-layer WALLS
+      femcrowd mesh plan.dxf --size 0.25 --units mm --walls-layer WALLS
       femcrowd mesh area.wkt --exit exit=10,2.5,10,3.5
     """
     from ..mesh import load_domain
     from ..mesh.floorplan import build_mesh
 
-    cad = {"walls": walls_layer, "obstacles": obstacles_layer, "size": size,
-           "doors": [p.strip() for p in door_layers.split(",") if p.strip()], "exits": [_segment(e) for e in exits]}
-    path = build_mesh(geometry, out, exit_size, cad=cad)
+    cad = {"walls": walls_layer, "obstacles": obstacles_layer, "size": size, "units": units,
+           "wall_thickness": wall_thickness, "doors": [p.strip() for p in door_layers.split(",") if p.strip()],
+           "exits": [_segment(e) for e in exits]}
+    path = build_mesh(geometry, out, exit_size, cad=cad, require_exits=not no_exits)
     stats = load_domain(path).statistics()
     groups = ", ".join(f"{name} {length:.3g} m" for name, length in stats["boundary_groups"].items())
     click.echo(f"wrote {path}: {stats['triangles']} triangles, h in [{stats['h_min']:.3g}, {stats['h_max']:.3g}] m, "
@@ -117,20 +126,27 @@ def mesh(geometry, out, exit_size, size, walls_layer, obstacles_layer, door_laye
 def new(case_dir, mesh_file):
     """Write a commented CASE_DIR/case.toml for the mesh FILE.msh.
 
-    Exits are the mesh's boundary groups not named wall*; every other key is
-    the default, with a comment. An existing case.toml is never overwritten.
+    Exits are the mesh's boundary groups not named wall* nor entrance*; a
+    group named entrance* becomes a [[sources]] entry (people arriving); a
+    mesh without an exit gets U = 0 to edit. Every other key is the default,
+    with a comment. An existing case.toml is never overwritten.
 
     \b
     Example:
       femcrowd new cases/my-hall --mesh meshes/two_exits.msh
       femcrowd run cases/my-hall
     """
-    from ..case.template import new_case_file, write_new_case
+    from ..case.template import door_groups, new_case_file, write_new_case
     from ..mesh import load_domain
 
     file = new_case_file(case_dir)
-    write_new_case(file, mesh_file, load_domain(mesh_file, (), 0, case_file=file))
-    click.echo(f"wrote {file}; edit [initial] density, then: femcrowd run {shlex.quote(str(case_dir))}")
+    domain = load_domain(mesh_file, (), 0, case_file=file)
+    write_new_case(file, mesh_file, domain)
+    exits, entrances, _ = door_groups(domain)
+    click.echo(f"wrote {file}; exits {', '.join(exits) or 'none'}; entrances {', '.join(entrances) or 'none'}")
+    if not exits:
+        click.echo("note: the mesh has no exit: the desired velocity is U = 0 until you give [velocity] ux, uy")
+    click.echo(f"edit [initial] density, then: femcrowd run {shlex.quote(str(case_dir))}")
 
 
 @main.command()

@@ -1,39 +1,52 @@
 """Floor plans from CAD: DXF drawings (ezdxf) and WKT polygons (JuPedSim's walkable areas, shapely).
 
-A DXF drawing names its parts by layers (the names are options, case-insensitive):
+A DXF drawing names its parts by layers (the names are options, case-insensitive; docs/plans.md):
 
 - ``walls`` (default "walls"): the outline of the walkable area, one closed loop made of closed
   polylines, or of lines, arcs and open polylines that join end to end; further closed loops on
-  this layer are obstacles;
+  this layer are obstacles; lines and open polylines with a free end (nothing else on the layer ends there:
+  a partition, whose other end may lie anywhere on the outline or on another partition) are internal walls
+  (mesh/partitions.py);
 - ``obstacles`` (default "obstacles"): circles, and closed loops as above;
 - exits and entrances: every layer whose name starts with one of the ``doors`` prefixes
   (default "exit" and "entrance") holds named boundary segments on the outline, lines or polylines;
-  the group is named after the layer ("exit_east"). A case lists which groups are exits
-  (``boundary.exits``) and which are entrances (``[[sources]]``).
+  the group is named after the layer ("exit_east"); a group named entrance* is an entrance.
 
-A WKT file holds one POLYGON (its holes are the obstacles), as JuPedSim writes walkable areas; its
-exits come as extra segments (``femcrowd mesh plan.wkt --exit exit=10,2.5,10,3.5``).
+Lengths are converted to metres: the drawing's units are ``units`` if given, else its header's
+``$INSUNITS`` (unitless or absent: metres). Layers of other names, and entities of other kinds, are listed
+in one warning.
+
+A WKT file holds one POLYGON (its holes are the obstacles), as JuPedSim writes walkable areas, and
+optionally LINESTRINGs (internal walls) beside it in a GEOMETRYCOLLECTION; its exits come as extra segments
+(``femcrowd mesh plan.wkt --exit exit=10,2.5,10,3.5``), in metres unless ``units`` says otherwise.
 
 Both become the tables of a TOML floor plan and go through the same checks and meshing
 (mesh/plan.py); errors name the layer and the entity (its DXF handle).
 """
 
+import logging
 import pathlib
+from collections import Counter
 
 import numpy as np
 
 from ..errors import InputError
-from .plan import PlanReader, check_plan
+from .plan import PLAUSIBLE, PlanReader, check_plan, is_entrance
 
+log = logging.getLogger("femcrowd")
 DEFAULT_LAYERS = {"walls": "walls", "obstacles": "obstacles", "doors": ("exit", "entrance")}
+#: --units: the names of the DXF header's $INSUNITS codes (ezdxf.units) that a plan may be drawn in
+UNITS = {"mm": 4, "cm": 5, "dm": 14, "m": 6, "km": 7, "in": 1, "ft": 2, "yd": 10}
+KINDS = ("LINE", "LWPOLYLINE", "POLYLINE", "ARC", "CIRCLE")
 
 
 class _CadReader(PlanReader):
     """Errors of the floor-plan checks, with the table keys translated to the drawing's layers and entities."""
 
-    def __init__(self, file, origins):
-        super().__init__(file)
-        self.origins = origins
+    def __init__(self, file, origins, units, require_exits, no_exits_hint):
+        super().__init__(file, require_exits)
+        self.origins, self.units, self.no_exits_hint = origins, units[0], no_exits_hint
+        self.factor = units[1]
 
     def error(self, key, value, message):
         for table, origin in sorted(self.origins.items(), key=lambda item: -len(item[0])):
@@ -41,54 +54,97 @@ class _CadReader(PlanReader):
                 return InputError(self.file, origin, _short(value), message)
         return InputError(self.file, key, _short(value), message)
 
+    def units_hint(self, extent):
+        """The first of mm, cm, m, in, ft that makes the plan plausible, as a --units to try."""
+        from ezdxf.units import conversion_factor
+
+        drawn = extent / self.factor
+        fits = [u for u in ("mm", "cm", "m", "in", "ft")
+                if PLAUSIBLE[0] <= drawn * conversion_factor(UNITS[u], UNITS["m"]) <= PLAUSIBLE[1]
+                and not self.units.startswith(u + " ")]
+        return ("; give the drawing's units with --units " + fits[0] if fits else
+                "; give the drawing's units with --units (" + ", ".join(UNITS) + ")")
+
 
 def _short(value):
     """Long point lists are shown by their first points."""
     if isinstance(value, dict):
         value = value.get("points", value.get("circle", value))
     text = repr(value)
-    return text if len(text) <= 60 else text[:57] + "..."
+    return value if len(text) <= 60 else text[:57] + "..."
 
 
-def read_plan(file, walls=None, obstacles=None, doors=None, size=0.2, exits=()):
-    """(size, loops, circles, exits, tol) of a DXF or WKT floor plan, as plan.read_toml_plan returns them.
+def read_plan(file, walls=None, obstacles=None, doors=None, size=0.2, exits=(), units=None, wall_thickness=None,
+              require_exits=False):
+    """(size, loops, circles, exits, tol, doors) of a DXF or WKT floor plan, as plan.read_toml_plan returns them.
 
-    exits: extra named segments ``[(name, (x0, y0), (x1, y1)), ...]`` (a WKT polygon has none of its own).
+    exits: extra named segments ``[(name, (x0, y0), (x1, y1)), ...]`` (a WKT polygon has none of its own), in
+    the plan's units; units: the drawing's length unit (a key of UNITS; None: the DXF's $INSUNITS, metres for
+    WKT); wall_thickness: of the internal walls (m, default mesh/partitions.py); require_exits: a plan without
+    an exit is an error.
     """
     file = pathlib.Path(file)
+    if units is not None and units not in UNITS:
+        raise InputError(file, "--units", units, f"expected one of {', '.join(UNITS)}")
     try:
         text = file.read_text() if file.suffix.lower() == ".wkt" else None
     except (OSError, UnicodeDecodeError) as err:
         raise InputError(file, None, None, f"cannot read the plan: {getattr(err, 'strerror', None) or err}") from None
     if text is not None:
-        data, origins = _from_wkt(file, text)
+        unit = _unit(units, None) if units else ("m (a WKT plan's default)", 1.0)
+        data, origins = _from_wkt(file, text, unit[1])
+        hint = "give the exits with --exit NAME=X0,Y0,X1,Y1, or --no-exits for a plan nobody leaves"
     else:
         layers = {"walls": walls or DEFAULT_LAYERS["walls"], "obstacles": obstacles or DEFAULT_LAYERS["obstacles"],
                   "doors": tuple(doors or DEFAULT_LAYERS["doors"])}
-        data, origins = _from_dxf(file, layers, size)
+        data, origins, unit, names = _from_dxf(file, layers, size, units)
+        exit_layers = [p for p in layers["doors"] if not is_entrance(p)] or ["exit"]
+        hint = (f"no layer named {'*, '.join(exit_layers)}* holds a line (the drawing's layers: "
+                f"{', '.join(names)}); rename the exit layer, give its name with --door-layers, or give --no-exits "
+                "for a plan nobody leaves")
     data["size"] = size
     for name, a, b in exits:
         origins[f"exits[{len(data['exits'])}]"] = f"--exit {name}"
-        data["exits"].append({"name": name, "from": list(a), "to": list(b)})
-    return check_plan(data, _CadReader(file, origins))
+        data["exits"].append({"name": name, "from": (np.array(a) * unit[1]).tolist(),
+                              "to": (np.array(b) * unit[1]).tolist()})
+    if wall_thickness is not None:
+        for wall in data["walls"]:
+            wall["thickness"] = wall_thickness
+    return check_plan(data, _CadReader(file, origins, unit, require_exits, hint))
 
 
-def _from_wkt(file, text):
+def _unit(name, code):
+    """(description, metres per drawing unit) of the --units name, or else of the $INSUNITS code."""
+    from ezdxf.units import conversion_factor, unit_name
+
+    if name is not None:
+        return f"{name} (--units)", conversion_factor(UNITS[name], UNITS["m"])
+    known = code in UNITS.values()
+    label = next((u for u, c in UNITS.items() if c == code), "m")
+    what = f"$INSUNITS = {code}" + ("" if known else f", {unit_name(code or 0).lower()}: taken as m")
+    return f"{label} ({what})", conversion_factor(code, UNITS["m"]) if known else 1.0
+
+
+def _from_wkt(file, text, factor):
     import shapely
 
     try:
         geometry = shapely.from_wkt(text.strip())
     except shapely.errors.GEOSException as err:
         raise InputError(file, None, None, f"not a WKT geometry: {err}") from None
-    polygons = [g for g in shapely.get_parts(geometry) if g.geom_type == "Polygon"]
+    parts = list(shapely.get_parts(shapely.get_parts(geometry)))   # a collection's parts, and theirs
+    polygons = [g for g in parts if g.geom_type == "Polygon"]
     if len(polygons) != 1:
         raise InputError(file, "POLYGON", geometry.geom_type, "expected one polygon (the walkable area, obstacles "
                          f"as its holes), found {len(polygons)}")
-    polygon = polygons[0]
+    polygon = shapely.affinity.scale(polygons[0], factor, factor, origin=(0, 0))
+    lines = [shapely.affinity.scale(g, factor, factor, origin=(0, 0)) for g in parts if g.geom_type == "LineString"]
     data = {"outer": {"points": _ring(polygon.exterior.coords)},
-            "holes": [{"points": _ring(ring.coords)} for ring in polygon.interiors], "exits": []}
+            "holes": [{"points": _ring(ring.coords)} for ring in polygon.interiors], "exits": [],
+            "walls": [{"points": [list(c[:2]) for c in line.coords]} for line in lines]}
     origins = {"outer": "POLYGON exterior", **{f"holes[{k}]": f"POLYGON hole {k + 1}"
-                                               for k in range(len(data["holes"]))}}
+                                               for k in range(len(data["holes"]))},
+               **{f"walls[{k}]": f"LINESTRING {k + 1}" for k in range(len(lines))}}
     return data, origins
 
 
@@ -98,7 +154,8 @@ def _ring(coords) -> list:
     return points[:-1] if len(points) > 1 and points[0] == points[-1] else points
 
 
-def _from_dxf(file, layers, size):
+def _from_dxf(file, layers, size, units):
+    """The tables of the drawing's plan (in metres), the origin of each, its units and its layers' names."""
     import ezdxf
     from ezdxf import path as dxfpath
 
@@ -108,28 +165,41 @@ def _from_dxf(file, layers, size):
         raise InputError(file, None, None, f"cannot read the drawing: {err}") from None
     except ezdxf.DXFError as err:
         raise InputError(file, None, None, f"not a DXF drawing: {err}") from None
-    sagitta = size / 20   # arcs become chords no further than this from the arc
+    unit = _unit(units, doc.header.get("$INSUNITS", 0))
+    factor = unit[1]
+    sagitta = size / 20 / factor   # arcs become chords no further than this (m) from the arc
     pieces = {"walls": [], "obstacles": [], "doors": []}
-    circles = []
+    circles, ignored, names = [], Counter(), set()
     for entity in doc.modelspace():
         layer = entity.dxf.layer
+        names.add(layer)
         kind = next((k for k in ("walls", "obstacles") if layer.lower() == layers[k].lower()), None)
         if kind is None and layer.lower().startswith(tuple(p.lower() for p in layers["doors"])):
             kind = "doors"
-        if kind is None or entity.dxftype() not in ("LINE", "LWPOLYLINE", "POLYLINE", "ARC", "CIRCLE"):
+        if kind is None or entity.dxftype() not in KINDS:
+            ignored[layer, entity.dxftype()] += 1
             continue
         origin = f"layer {layer!r} {entity.dxftype()} #{entity.dxf.handle}"
         if entity.dxftype() == "CIRCLE" and kind == "obstacles":
-            circles.append(({"circle": {"center": list(entity.dxf.center)[:2], "radius": entity.dxf.radius}},
-                            origin))
+            circles.append(({"circle": {"center": (factor * np.array(entity.dxf.center)[:2]).tolist(),
+                                        "radius": factor * entity.dxf.radius}}, origin))
             continue
-        points = np.array([(v.x, v.y) for v in dxfpath.make_path(entity).flattening(sagitta)])
+        points = factor * np.array([(v.x, v.y) for v in dxfpath.make_path(entity).flattening(sagitta)])
         closed = entity.dxftype() == "CIRCLE" or getattr(entity, "closed", False) or getattr(entity, "is_closed",
                                                                                               False)
         pieces[kind].append((points, bool(closed), layer.lower(), origin))
+    if ignored:
+        log.warning("%s: ignored (not on the layers %s, %s, %s*, or not %s): %s", file, layers["walls"],
+                    layers["obstacles"], "*, ".join(layers["doors"]), ", ".join(KINDS),
+                    "; ".join(f"layer {layer!r}: {n} {kind}" for (layer, kind), n in sorted(ignored.items())))
     span = np.ptp(np.concatenate([p for p, *_ in pieces["walls"]]), axis=0).max() if pieces["walls"] else 1.0
     tol = 1e-6 * span
-    wall_loops = _loops(file, pieces["walls"], tol)
+    outline, partitions, free = _partitions(file, pieces["walls"], tol)
+    wall_loops = _loops(file, outline, tol)
+    if not wall_loops and free:
+        raise InputError(file, free[0], f"({free[1][0]:g}, {free[1][1]:g})", "open outline: no closed loop on "
+                         "the walls layer, and nothing joins this end (close the polyline, or join the lines and "
+                         "arcs end to end)")
     if not wall_loops:
         raise InputError(file, f"layer {layers['walls']!r}", None, "no outline: the walls layer has no closed loop "
                          "(closed polylines, or lines and arcs joined end to end)")
@@ -137,14 +207,45 @@ def _from_dxf(file, layers, size):
     outer = int(np.argmax(areas))
     holes = [loop for k, loop in enumerate(wall_loops) if k != outer] + _loops(file, pieces["obstacles"], tol)
     data = {"outer": {"points": wall_loops[outer][0].tolist()},
-            "holes": [{"points": p.tolist()} for p, _ in holes] + [c for c, _ in circles], "exits": []}
+            "holes": [{"points": p.tolist()} for p, _ in holes] + [c for c, _ in circles], "exits": [],
+            "walls": [{"points": p.tolist()} for p, *_ in partitions]}
     origins = {"outer": wall_loops[outer][1]}
     origins.update({f"holes[{k}]": origin for k, (_, origin) in enumerate(holes + [(None, o) for _, o in circles])})
+    origins.update({f"walls[{k}]": origin for k, (*_, origin) in enumerate(partitions)})
     for points, _, layer, origin in pieces["doors"]:
         for a, b in zip(points[:-1], points[1:]):
             origins[f"exits[{len(data['exits'])}]"] = origin
             data["exits"].append({"name": layer, "from": a.tolist(), "to": b.tolist()})
-    return data, origins
+    return data, origins, unit, sorted(names, key=str.lower)
+
+
+def _partitions(file, pieces, tol):
+    """The pieces of the walls layer split into (outline and obstacle pieces, internal walls): an open piece
+    with an end that no other open piece's end meets is an internal wall, and so on until none is left (a
+    chain of internal walls comes off end by end); the rest must join end to end into loops, two pieces
+    at each point. Also returns the first free end found (origin, point), or None."""
+    from scipy.spatial import cKDTree
+
+    is_closed = [p[1] or (len(p[0]) > 2 and np.linalg.norm(p[0][0] - p[0][-1]) <= tol) for p in pieces]
+    closed = [p for p, c in zip(pieces, is_closed) if c]
+    rest, partitions, first = [p for p, c in zip(pieces, is_closed) if not c], [], None
+    while rest:
+        ends = np.array([[points[0], points[-1]] for points, *_ in rest]).reshape(-1, 2)
+        meeting = cKDTree(ends).query_ball_point(ends, tol, return_length=True).reshape(-1, 2) - 1
+        free = (meeting == 0).any(axis=1)
+        if not free.any():
+            if (meeting > 1).any():
+                k, end = np.argwhere(meeting > 1)[0]
+                raise InputError(file, rest[k][3], f"({ends[2 * k + end][0]:g}, {ends[2 * k + end][1]:g})",
+                                 f"{meeting[k, end] + 1} pieces of the walls layer end here: draw the outline as one "
+                                 "closed polyline (internal walls may end anywhere on it)")
+            break
+        if first is None:
+            k, end = np.argwhere(meeting == 0)[0]
+            first = rest[k][3], ends[2 * k + end]
+        partitions += [p for p, f in zip(rest, free) if f]
+        rest = [p for p, f in zip(rest, free) if not f]
+    return closed + rest, partitions, first
 
 
 def _loops(file, pieces, tol):

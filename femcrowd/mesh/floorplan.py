@@ -1,7 +1,7 @@
 """Floor plans to gmsh meshes (MSH 2.2) with named boundary groups.
 
-The plan (TOML, or a DXF drawing or WKT polygon) is read and checked by :mod:`femcrowd.mesh.plan`, where
-its format is documented.
+The plan (TOML, or a DXF drawing or WKT polygon) is read and checked by :mod:`femcrowd.mesh.plan`, its internal
+walls cut out by :mod:`femcrowd.mesh.partitions`; the format and its rules are docs/plans.md.
 
 Exits split the edge they lie on, and so do the ends of doors. The mesh has
 one physical line group per exit name and per door name, "wall" for every
@@ -20,6 +20,7 @@ from collections import defaultdict
 import gmsh
 import numpy as np
 
+from ..errors import InputError
 from .cad import read_plan
 from .plan import PlanReader, polygon_edges, read_toml_plan
 
@@ -47,7 +48,8 @@ def _split(loops, exits, tol, ends=np.zeros((0, 2))):
     return out
 
 
-def build_mesh(geometry_file, out=None, refine_exits=None, gmsh_options=None, cad=None) -> pathlib.Path:
+def build_mesh(geometry_file, out=None, refine_exits=None, gmsh_options=None, cad=None,
+               require_exits=False) -> pathlib.Path:
     """Mesh the floor plan ``geometry_file`` (TOML; or a DXF drawing or WKT polygon, mesh/cad.py) and write it
     as MSH 2.2.
 
@@ -56,15 +58,26 @@ def build_mesh(geometry_file, out=None, refine_exits=None, gmsh_options=None, ca
     ``size`` keys (None: use them).
     gmsh_options: gmsh options overriding femcrowd's (frontal-Delaunay,
     ``Mesh.Algorithm`` 6, with ``Mesh.Smoothing`` 5), e.g. for benchmarks.
-    cad: options of the DXF / WKT reader (mesh/cad.py: layer names, size, extra exits).
-    Raises InputError for a bad floor plan.
+    cad: options of the DXF / WKT reader (mesh/cad.py: layer names, size, extra exits, units, wall thickness).
+    require_exits: a plan without an exit is an error (``femcrowd mesh`` without ``--no-exits``).
+    Raises InputError for a bad floor plan or output path, before meshing; the mesh is written to a temporary
+    file next to `out` and renamed, so that a failure never leaves a half-written `out`.
     """
     geometry_file = pathlib.Path(geometry_file)
     out = pathlib.Path(out) if out is not None else geometry_file.with_suffix(".msh")
+    if out.is_dir():
+        raise InputError(out, None, None, "is a directory: -o names the .msh file to write (e.g. -o "
+                         f"{out / geometry_file.with_suffix('.msh').name})")
+    if out.suffix.lower() != ".msh":
+        raise InputError(out, None, None, "femcrowd mesh writes gmsh .msh files only: give -o a name ending in .msh")
     if geometry_file.suffix.lower() in (".dxf", ".wkt"):
-        size, loops, circles, exits, tol, doors = read_plan(geometry_file, **(cad or {}))
+        size, loops, circles, exits, tol, doors = read_plan(geometry_file, **(cad or {}), require_exits=require_exits)
     else:
-        size, loops, circles, exits, tol, doors = read_toml_plan(geometry_file)
+        unused = [f"--{k.replace('_', '-')}" for k in ("units", "wall_thickness") if (cad or {}).get(k) is not None]
+        if unused:
+            raise InputError(geometry_file, unused[0], cad[unused[0][2:].replace("-", "_")],
+                             "for DXF and WKT plans only: a TOML plan is in metres, its walls have a 'thickness'")
+        size, loops, circles, exits, tol, doors = read_toml_plan(geometry_file, require_exits)
     if refine_exits is not None:
         refine_exits = PlanReader(geometry_file).size("refine_exits", refine_exits)
     gmsh.initialize(readConfigFiles=False, interruptible=False)
@@ -79,7 +92,16 @@ def build_mesh(geometry_file, out=None, refine_exits=None, gmsh_options=None, ca
             gmsh.option.setNumber(option, value)
         gmsh.model.mesh.generate(2)
         out.parent.mkdir(parents=True, exist_ok=True)
-        gmsh.write(str(out))
+        partial = out.with_name(f".{out.stem}.partial.msh")
+        try:
+            gmsh.write(str(partial))
+            partial.replace(out)
+        except Exception as err:   # gmsh raises Exception
+            partial.unlink(missing_ok=True)
+            raise InputError(out, None, None, f"cannot write the mesh: {getattr(err, 'strerror', None) or err}") \
+                from None
+    except OSError as err:   # the directory
+        raise InputError(out, None, None, f"cannot write the mesh: {err.strerror or err}") from None
     finally:
         gmsh.finalize()
     return out

@@ -1,33 +1,12 @@
 """Floor plans: the tables of a plan, read and checked.
 
-A floor plan is a TOML file (the format below) or the same tables made from a CAD drawing
-(:mod:`femcrowd.mesh.cad`); :func:`check_plan` checks either, naming the file and the key of any error,
-and returns what :func:`femcrowd.mesh.floorplan.build_mesh` meshes.
-
-A floor plan, all lengths in metres; only ``[outer]`` is required::
-
-    size = 0.2                      # target cell size (default 0.2)
-
-    [outer]                         # outer boundary polygon, either orientation
-    points = [[0, 0], [10, 0], [10, 6], [0, 6]]
-
-    [[exits]]                       # a named exit: a segment on one straight edge
-    name = "exit"                   # of the outer polygon or of a polygon hole;
-    from = [10, 2.5]                # several exits may share a name
-    to = [10, 3.5]
-    size = 0.05                     # optional smaller cell size near this exit
-
-    [[holes]]                       # obstacles strictly inside the outer polygon,
-    circle = { center = [7, 3], radius = 0.5 }     # not touching each other
-
-    [[holes]]
-    points = [[2, 2], [3, 2], [3, 3]]
-
-    [[doors]]                       # a named interior line (a door between two rooms,
-    name = "door"                   # the entrance of a corridor): a straight segment
-    from = [6, 0]                   # inside the domain, its ends on the boundary or
-    to = [6, 6]                     # inside; a physical line group of interior edges
-
+A floor plan is a TOML file or the same tables made from a CAD drawing (:mod:`femcrowd.mesh.cad`); the
+format, its units and its rules are in docs/plans.md. :func:`check_plan` checks either, naming the file and
+the key of any error, and returns what :func:`femcrowd.mesh.floorplan.build_mesh` meshes: the outer polygon
+and its holes (obstacles), the internal walls ``[[walls]]`` cut out of them (mesh/partitions.py), the named
+exits on the boundary (a name starting with "entrance" is an entrance: :func:`is_entrance`) and the
+named interior lines ``[[doors]]``. All lengths are in metres; a plan smaller than 1 m or larger than 10 km
+across is refused as a mistake of units.
 """
 
 import difflib
@@ -37,16 +16,27 @@ import tomllib
 import numpy as np
 
 from ..errors import InputError
+from .partitions import DEFAULT_THICKNESS, cut_partitions
 
 KEYS = {
-    "": {"size", "outer", "exits", "holes", "doors"},
+    "": {"size", "outer", "exits", "holes", "doors", "walls"},
     "outer": {"points"},
+    "walls": {"points", "thickness"},
     "exits": {"name", "from", "to", "size"},
     "doors": {"name", "from", "to"},
     "holes": {"circle", "points"},
     "circle": {"center", "radius"},
 }
 RESERVED = {"wall", "domain"}
+#: the extent (m) of a plan that can be a building, from a room to a campus; outside it, a mistake of units
+PLAUSIBLE = (1.0, 1e4)
+#: the most triangles a plan may ask for (10x the largest benchmark): more is a mistake of units or of size
+MAX_TRIANGLES = 1e7
+
+
+def is_entrance(name) -> bool:
+    """A boundary group named entrance* is where people arrive (a source), not an exit."""
+    return name.lower().startswith("entrance")
 
 # Geometry checks are plain numpy segment tests with the plan's length tolerance tol (points closer than tol
 # meet), vectorised over all edges; shapely's predicates are exact and have no such tolerance.
@@ -103,10 +93,21 @@ def _holes_meet(h, g, tol):
 
 
 class PlanReader:
-    """Typed access to the parsed TOML, raising InputError that names file and key."""
+    """Typed access to the parsed TOML, raising InputError that names file and key.
 
-    def __init__(self, file):
-        self.file = file
+    require_exits: a plan without an exit is an error (``femcrowd mesh`` without ``--no-exits``), its message
+    ending with ``no_exits_hint``; ``units`` names the plan's length unit in the error of an implausible size.
+    """
+
+    units = "m"
+    no_exits_hint = "add an [[exits]] segment on the outline, or give --no-exits for a plan nobody leaves"
+
+    def __init__(self, file, require_exits=False):
+        self.file, self.require_exits = file, require_exits
+
+    def units_hint(self, extent):
+        """What to do about a plan of an implausible extent (m)."""
+        return "; a TOML plan's lengths are in metres"
 
     def error(self, key, value, message):
         return InputError(self.file, key, value, message)
@@ -131,7 +132,8 @@ class PlanReader:
             raise self.error(key, value, "expected a positive number")
         return float(value)
 
-    def points(self, key, value, polygon=True):
+    def points(self, key, value, polygon=True, least=3):
+        """A list of at least `least` points (n, 2), or one point [x, y] (polygon=False)."""
         try:
             a = np.array(value, dtype=float)
         except (TypeError, ValueError):
@@ -139,8 +141,9 @@ class PlanReader:
         ok = a.ndim == 2 and a.shape[1] == 2 if polygon else a.shape == (2,)
         if not ok or not np.isfinite(a).all():
             raise self.error(key, value, "expected a list of [x, y] points" if polygon else "expected a point [x, y]")
-        if polygon and len(a) < 3:
-            raise self.error(key, value, "a polygon needs at least 3 points")
+        if polygon and len(a) < least:
+            raise self.error(key, value, "a polygon needs at least 3 points" if least == 3 else
+                             f"a line needs at least {least} points")
         return a
 
     def polygon(self, key, value, tol):
@@ -159,7 +162,7 @@ class PlanReader:
         return p if (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]).sum() > 0 else p[::-1]
 
 
-def read_toml_plan(file):
+def read_toml_plan(file, require_exits=False):
     """Parse and check a floor plan.
 
     Returns size, the polygon loops (outer first, then polygon holes), the
@@ -167,7 +170,7 @@ def read_toml_plan(file):
     name, local size or None, length), the length tolerance and the doors
     (from, to, name).
     """
-    r = PlanReader(file)
+    r = PlanReader(file, require_exits)
     try:
         data = tomllib.loads(pathlib.Path(file).read_text())
     except tomllib.TOMLDecodeError as e:
@@ -185,8 +188,18 @@ def check_plan(data, r):
     if "outer" not in data:
         raise r.error("outer", None, "missing: the outer boundary polygon [outer] points = [[x, y], ...]")
     points = r.table("outer", data["outer"], "outer").get("points")
-    tol = 1e-6 * np.ptp(r.points("outer.points", points), axis=0).max()
+    extent = np.ptp(r.points("outer.points", points), axis=0)
+    if not PLAUSIBLE[0] <= extent.max() <= PLAUSIBLE[1]:
+        raise r.error("units", r.units, f"the plan is {extent[0]:.3g} m x {extent[1]:.3g} m, not the size of a "
+                      "building (1 m to 10 km across)" + r.units_hint(extent.max()))
+    tol = 1e-6 * extent.max()
     outer = r.polygon("outer.points", points, tol)
+    a, b = polygon_edges(outer)
+    triangles = 2.3 * 0.5 * (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]).sum() / size ** 2   # equilateral, side size
+    if triangles > MAX_TRIANGLES:
+        raise r.error("units", r.units, f"the plan is {extent[0]:.3g} m x {extent[1]:.3g} m: at a cell size of "
+                      f"{size:g} m it would take about {triangles:.1g} triangles" + r.units_hint(extent.max())
+                      + ", or a larger cell size")
 
     holes = []
     for k, hole in enumerate(r.tables("holes", data.get("holes", []), "holes")):
@@ -208,8 +221,19 @@ def check_plan(data, r):
                 raise r.error(key, hole, f"the hole touches or overlaps holes[{m}]")
         holes.append(h)
 
-    # exits: each on one straight edge of the outer polygon or of a polygon hole
+    circles = [h for h in holes if h[0] == "circle"]
     loops = [outer] + [h[1] for h in holes if h[0] == "polygon"]
+    walls = [(f"walls[{k}]", r.points(f"walls[{k}].points", w.get("points"), least=2),
+              r.size(f"walls[{k}].thickness", w.get("thickness", DEFAULT_THICKNESS)))
+             for k, w in enumerate(r.tables("walls", data.get("walls", []), "walls"))]
+    for key, points, _ in walls:
+        if (np.linalg.norm(np.diff(points, axis=0), axis=1) <= tol).any():
+            raise r.error(f"{key}.points", points.tolist(), "repeated consecutive point")
+    if walls:
+        outline, polygons = cut_partitions(loops[0], loops[1:], circles, walls, tol, r.error)
+        loops = [r.polygon("outer.points", outline, tol)] + [r.polygon("walls", p, tol) for p in polygons]
+
+    # exits: each on one straight edge of the outer polygon or of a polygon hole
     a = np.concatenate([polygon_edges(p)[0] for p in loops])
     d = np.concatenate([polygon_edges(p)[1] - polygon_edges(p)[0] for p in loops])
     exits = []
@@ -234,7 +258,8 @@ def check_plan(data, r):
                 raise r.error(key, ex, f"the exit overlaps exits[{m}]")
         h = r.size(f"{key}.size", ex["size"]) if "size" in ex else None
         exits.append((e, t0, t1, name, h, (t1 - t0) * np.linalg.norm(d[e])))
-    circles = [h for h in holes if h[0] == "circle"]
+    if r.require_exits and all(is_entrance(e[3]) for e in exits):
+        raise r.error("exits", sorted({e[3] for e in exits}), "the plan has no exit: " + r.no_exits_hint)
     return size, loops, circles, exits, tol, _doors(data, r, loops, circles, {e[3] for e in exits}, tol)
 
 

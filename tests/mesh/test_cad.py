@@ -79,3 +79,187 @@ def test_bad_drawings_are_refused_in_one_line(tmp_path, name):
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and str(plan) in lines[0] and where in lines[0] and words in lines[0], lines
     assert not (tmp_path / "plan.msh").exists()
+
+
+def office(path, scale=1.0, insunits=6, walls=(((5, 0), (5, 4)), ((5, 5), (5, 6))), exit_layer="exit",
+           extra=True):
+    """A 10 x 6 m office drawn in units of 1/scale m ($INSUNITS insunits): its outline a closed polyline on
+    "walls", a partition at x = 5 drawn as LINEs on "walls" (default: a doorway between y = 4 and 5), an exit
+    at x = 10 on `exit_layer`, an entrance at x = 0; with `extra`, a text on a layer "notes"."""
+    doc = ezdxf.new()
+    doc.header["$INSUNITS"] = insunits
+    msp = doc.modelspace()
+    s = lambda *points: [(scale * x, scale * y) for x, y in points]   # noqa: E731
+    msp.add_lwpolyline(s((0, 0), (10, 0), (10, 6), (0, 6)), close=True, dxfattribs={"layer": "walls"})
+    for wall in walls:
+        if len(wall) == 2:
+            msp.add_line(*s(*wall), dxfattribs={"layer": "walls"})
+        else:
+            msp.add_lwpolyline(s(*wall), dxfattribs={"layer": "walls"})
+    msp.add_line(*s((10, 0.5), (10, 1.5)), dxfattribs={"layer": exit_layer})
+    msp.add_line(*s((0, 2), (0, 3)), dxfattribs={"layer": "entrance"})
+    if extra:
+        msp.add_text("office", dxfattribs={"layer": "notes"})
+    doc.saveas(path)
+    return path
+
+
+def mesh(plan, *options):
+    return CliRunner().invoke(main, ["mesh", str(plan), "--size", "0.4", *map(str, options)])
+
+
+def one_line_error(result, *words):
+    assert result.exit_code == 2, result.output
+    lines = [line for line in result.stderr.strip().splitlines() if line.startswith("femcrowd: error: ")]
+    assert len(lines) == 1 and "Traceback" not in result.output and all(w in lines[0] for w in words), lines
+    return lines[0]
+
+
+@pytest.mark.parametrize("scale, insunits, units", [(1000, 4, None), (100, 0, "cm"), (1 / 0.3048, 0, "ft"),
+                                                    (1000, 6, "mm")])
+def test_units_from_insunits_or_given(tmp_path, scale, insunits, units):
+    """A plan drawn in millimetres with $INSUNITS = 4, in centimetres or feet without units and --units,
+    and in mm with $INSUNITS wrongly saying m and --units mm: the mesh is the 10 x 6 m office."""
+    plan = office(tmp_path / "plan.dxf", scale, insunits)
+    result = mesh(plan, *(["--units", units] if units else []))
+    assert result.exit_code == 0, result.output
+    domain = load_domain(tmp_path / "plan.msh")
+    assert np.ptp(domain.points, axis=0) == pytest.approx([10, 6], rel=1e-9)
+    assert domain.area.sum() == pytest.approx(60 - 0.1 * 5, rel=1e-9)    # the partition, 0.1 m thick, 5 m long
+    assert domain.length[domain.groups["exit"]].sum() == pytest.approx(1.0, rel=1e-9)
+
+
+def test_an_implausible_size_is_refused_before_meshing(tmp_path):
+    """The office in millimetres with $INSUNITS saying metres (10 km across: 3e9 triangles) and a 30 x 20 m hall
+    in millimetres read as metres, with a few milliseconds of meshing: one line naming the units and the
+    --units to give, no mesh written; the same office read with --units km is too small."""
+    import time
+
+    start = time.perf_counter()
+    line = one_line_error(mesh(office(tmp_path / "plan.dxf", 1000, 6)), "plan.dxf", "units = 'm ($INSUNITS = 6)'",
+                          "1e+04 m x 6e+03 m", "--units mm")
+    assert "triangles" in line
+    hall = office(tmp_path / "hall.dxf", 3000, 0, walls=())
+    one_line_error(mesh(hall), "hall.dxf", "unitless: taken as m", "3e+04 m x 1.8e+04 m",
+                   "not the size of a building", "--units mm")
+    one_line_error(mesh(office(tmp_path / "km.dxf"), "--units", "km"), "units = 'km (--units)'", "1e+04 m",
+                   "--units m")
+    one_line_error(mesh(hall, "--units", "parsec"), "--units = 'parsec'", "expected one of mm, cm")
+    assert time.perf_counter() - start < 5
+    assert not list(tmp_path.glob("*.msh"))
+
+
+def components(domain):
+    """The number of edge-connected pieces of the mesh."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    pairs = domain.mesh.f2t[:, domain.mesh.f2t[1] >= 0]
+    n = domain.mesh.t.shape[1]
+    return connected_components(coo_matrix((np.ones(pairs.shape[1]), pairs), shape=(n, n)))[0]
+
+
+def test_a_partition_with_a_doorway_is_a_wall_people_walk_around(tmp_path):
+    """Two LINEs at x = 5 on the walls layer, a 1 m doorway between y = 4 and 5: a strip 0.1 m thick cut out of
+    the floor, its sides wall facets; the floor stays one piece, and the walking distance from (1, 1) to the
+    exit (x = 10, y in [0.5, 1.5]) goes through the doorway (10.6 m, against 9 m through the wall)."""
+    from femcrowd.mesh.distance import exit_distance
+
+    result = mesh(office(tmp_path / "plan.dxf"))
+    assert result.exit_code == 0, result.output
+    domain = load_domain(tmp_path / "plan.msh", ["exit"])
+    m = domain.mesh
+    wall = m.facets[:, domain.groups["wall"]]
+    mid = domain.points[wall].mean(axis=0)
+    sides = np.isclose(np.abs(mid[:, 0] - 5), 0.05) & (mid[:, 1] > 0) & (mid[:, 1] < 6)
+    assert domain.length[domain.groups["wall"]][sides].sum() == pytest.approx(2 * 4 + 2 * 1, rel=1e-9)
+    centroids = domain.points[domain.triangles].mean(axis=1)
+    assert not (np.abs(centroids[:, 0] - 5) < 0.05).any() or \
+        (np.abs(centroids[np.abs(centroids[:, 0] - 5) < 0.05, 1] - 4.5) < 0.5).all()   # only in the doorway
+    assert components(domain) == 1
+    d = exit_distance(domain.points, domain.triangles, m.facets[:, domain.groups["exit"]].T)
+    assert np.isfinite(d).all()
+    start = np.argmin(np.linalg.norm(domain.points - [1, 1], axis=1))
+    through_door = np.linalg.norm(domain.points[start] - [4.95, 4]) + 0.1 + np.hypot(4.95, 2.5)
+    assert d[start] == pytest.approx(through_door, rel=0.02) and d[start] > 10
+
+
+@pytest.mark.parametrize("walls, words", [
+    ((((5, 0), (5, 6)),), ["walls = '1 walls'", "cut the plan into 2 parts"]),
+    ((((5, 0), (5, 7)),), ["layer 'walls' LINE", "must lie inside the outer boundary"]),
+    ((((2, 0), (2, 3), (5, 3), (5, 0)),), ["cut the plan into 2 parts (50.5, 8.56 m^2)", "leave a doorway"])])
+def test_partitions_that_close_a_room_or_leave_the_plan_are_refused(tmp_path, walls, words):
+    one_line_error(mesh(office(tmp_path / "plan.dxf", walls=walls)), "plan.dxf", *words)
+    assert not (tmp_path / "plan.msh").exists()
+
+
+def test_an_open_polyline_partition_and_a_line_joined_to_it(tmp_path):
+    """An L drawn as an open LWPOLYLINE from the bottom wall, and a LINE going on from its end to 1 m short of
+    the top wall: the joints closed (the floor loses exactly the 0.1 m strips of the 8 m drawn), the floor
+    one piece."""
+    result = mesh(office(tmp_path / "plan.dxf", walls=(((3, 0), (3, 4), (6, 4)), ((6, 4), (6, 5)))))
+    assert result.exit_code == 0, result.output
+    domain = load_domain(tmp_path / "plan.msh")
+    assert components(domain) == 1
+    assert domain.area.sum() == pytest.approx(60 - 0.1 * (4 + 3 + 1), rel=1e-9)
+
+
+def test_no_exit_is_an_error_unless_asked_for(tmp_path):
+    """An exit on a layer named Door (not recognised): one line listing the drawing's layers, after the
+    warning that lists what was ignored; --door-layers door makes it an exit, --no-exits meshes the plan with
+    its entrance only; a WKT polygon without --exit likewise."""
+    plan = office(tmp_path / "plan.dxf", exit_layer="Door")
+    result = mesh(plan)
+    one_line_error(result, "plan.dxf: exits = ['entrance']", "the plan has no exit", "no layer named exit*",
+                   "Door, entrance, notes, walls", "--door-layers", "--no-exits")
+    warning = [line for line in result.stderr.splitlines() if "ignored" in line]
+    assert len(warning) == 1 and "layer 'Door': 1 LINE" in warning[0] and "layer 'notes': 1 TEXT" in warning[0]
+    assert not (tmp_path / "plan.msh").exists()
+    result = mesh(plan, "--door-layers", "door,entrance")
+    assert result.exit_code == 0 and "door 1 m, entrance 1 m" in result.output, result.output
+    result = mesh(plan, "--no-exits")
+    assert result.exit_code == 0 and "exit" not in load_domain(tmp_path / "plan.msh").groups, result.output
+    (tmp_path / "area.wkt").write_text("POLYGON ((0 0, 10 0, 10 6, 0 6, 0 0))\n")
+    one_line_error(mesh(tmp_path / "area.wkt"), "area.wkt: exits = []", "--exit NAME=X0,Y0,X1,Y1")
+    assert mesh(tmp_path / "area.wkt", "--no-exits").exit_code == 0
+
+
+def test_a_clean_drawing_warns_of_nothing(tmp_path):
+    result = mesh(office(tmp_path / "plan.dxf", extra=False))
+    assert result.exit_code == 0 and result.stderr == "", result.stderr
+
+
+def test_a_wkt_plan_with_an_internal_wall_in_centimetres(tmp_path):
+    (tmp_path / "area.wkt").write_text("GEOMETRYCOLLECTION (POLYGON ((0 0, 1000 0, 1000 600, 0 600, 0 0)), "
+                                       "LINESTRING (500 0, 500 400))\n")
+    result = mesh(tmp_path / "area.wkt", "--units", "cm", "--exit", "exit=1000,50,1000,150")
+    assert result.exit_code == 0, result.output
+    domain = load_domain(tmp_path / "area.msh")
+    assert domain.area.sum() == pytest.approx(60 - 0.1 * 4, rel=1e-9)
+    assert domain.length[domain.groups["exit"]].sum() == pytest.approx(1.0, rel=1e-9)
+
+
+@pytest.mark.parametrize("out, words", [("somedir", ["somedir: is a directory", "-o names the .msh file"]),
+                                        ("out.vtk", ["out.vtk: femcrowd mesh writes gmsh .msh files only"])])
+def test_bad_output_paths_are_one_line(tmp_path, out, words):
+    (tmp_path / "somedir").mkdir()
+    one_line_error(mesh(office(tmp_path / "plan.dxf", extra=False), "-o", tmp_path / out), *words)
+    assert not (tmp_path / "out.vtk").exists() and not list(tmp_path.rglob("*.msh"))
+
+
+def test_new_makes_the_entrance_a_source_and_needs_no_direction_without_exits(tmp_path):
+    """femcrowd new on the office's mesh: exits ["exit"], the entrance a [[sources]] entry; on the mesh made
+    with --no-exits: U = 0 and a note."""
+    plan = office(tmp_path / "plan.dxf", extra=False)
+    assert mesh(plan).exit_code == 0
+    result = CliRunner().invoke(main, ["new", str(tmp_path / "case"), "--mesh", str(tmp_path / "plan.msh")])
+    assert result.exit_code == 0, result.output
+    case = load_case(tmp_path / "case")
+    assert case["boundary"]["exits"] == ["exit"] and case["velocity"]["type"] == "exits"
+    assert [(s["boundary"], s["flow"]) for s in case["sources"]] == [("entrance", 0.5)]
+    assert mesh(plan, "--no-exits", "--door-layers", "entrance", "-o", tmp_path / "closed.msh").exit_code == 0
+    result = CliRunner().invoke(main, ["new", str(tmp_path / "closed"), "--mesh", str(tmp_path / "closed.msh")])
+    assert result.exit_code == 0 and "no exit" in result.output, result.output
+    case = load_case(tmp_path / "closed")
+    assert case["boundary"]["exits"] == [] and (case["velocity"]["ux"], case["velocity"]["uy"]) == ("0", "0")
+    assert [s["boundary"] for s in case["sources"]] == ["entrance"]

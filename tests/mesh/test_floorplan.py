@@ -125,6 +125,20 @@ BAD = {
                           '[[doors]]\nname = "d"\nfrom = [5, 0]\nto = [5, 6]', "doors[0]", "must lie inside"),
     "door_name": ('[[doors]]\nname = "wall"\nfrom = [5, 0]\nto = [5, 6]', "doors[0].name", "other than"),
     "door_key": ('[[doors]]\nname = "d"\nfrom = [5, 0]\nto = [5, 6]\nsize = 0.1', "doors[0].size", "unknown key"),
+    "tiny": ("[outer]\npoints = [[0, 0], [0.5, 0], [0, 0.5]]", "units", "0.5 m x 0.5 m, not the size of a building"),
+    "huge": ("[outer]\npoints = [[0, 0], [2e4, 0], [0, 10]]", "units", "2e+04 m x 10 m, not the size of a building"),
+    "too_many": ("size = 0.01\n[outer]\npoints = [[0, 0], [1e3, 0], [1e3, 1e3], [0, 1e3]]", "units",
+                 "it would take about 2e+10 triangles"),
+    "wall_outside": ("[[walls]]\npoints = [[5, 0], [5, 8]]", "walls[0]", "must lie inside the outer boundary"),
+    "wall_point": ("[[walls]]\npoints = [[5, 0]]", "walls[0].points", "at least 2 points"),
+    "wall_repeated": ("[[walls]]\npoints = [[5, 0], [5, 0], [5, 3]]", "walls[0].points", "repeated"),
+    "wall_thickness": ("[[walls]]\npoints = [[5, 0], [5, 3]]\nthickness = 0", "walls[0].thickness", "positive"),
+    "wall_key": ("[[walls]]\npoints = [[5, 0], [5, 3]]\nwidth = 0.2", "walls[0].width", "unknown key"),
+    "walls_close": ("[[walls]]\npoints = [[5, 0], [5, 6]]", "walls", "cut the plan into 2 parts (29.7, 29.7 m^2)"),
+    "wall_circle": ("[[holes]]\ncircle = { center = [5, 3], radius = 0.5 }\n[[walls]]\npoints = [[5, 0], [5, 2.6]]",
+                    "walls[0]", "touches a circle hole"),
+    "no_exit": ("", "exits", "the plan has no exit"),
+    "entrance_only": ('[[exits]]\nname = "entrance"\nfrom = [0, 2]\nto = [0, 3]', "exits", "has no exit"),
 }
 
 
@@ -140,6 +154,22 @@ def test_an_interior_door_is_a_line_group_of_interior_edges(tmp_path):
     assert lengths(m)["wall"] == pytest.approx(lengths(plain)["wall"], rel=1e-12)
 
 
+def test_internal_walls_are_cut_out_with_their_thickness(tmp_path):
+    """Two [[walls]] at x = 6 from the bottom and top walls, 0.2 m thick, a 2 m doorway between their free ends:
+    the floor loses 2 x 2 x 0.2 m^2, the walls gain their sides and square ends (the notches in the outline
+    are the strips' width), the exits are unchanged and the floor is one piece."""
+    walls = ('[[walls]]\npoints = [[6, 0], [6, 2]]\nthickness = 0.2\n'
+             '[[walls]]\npoints = [[6, 4], [6, 6]]\nthickness = 0.2\n')
+    m = read_mesh(build_mesh(write(tmp_path, ROOM + walls)), "case.toml")
+    plain = read_mesh(build_mesh(write(tmp_path, ROOM, "plain.toml")), "case.toml")
+    assert areas(m).sum() == pytest.approx(60 - 0.5 - 0.8, rel=1e-12)
+    assert lengths(m)["wall"] == pytest.approx(lengths(plain)["wall"] + 2 * (2 + 2), rel=1e-12)
+    assert lengths(m)["exit"] == pytest.approx(2, rel=1e-12) and lengths(m)["hatch"] == pytest.approx(0.5)
+    centroids = m.p[:, m.t].mean(axis=1)
+    assert not ((np.abs(centroids[0] - 6) < 0.1) & ((centroids[1] < 2) | (centroids[1] > 4))).any()
+    assert non_delaunay(m) == 0
+
+
 @pytest.mark.parametrize("case", BAD)
 def test_bad_geometry(tmp_path, case):
     text, key, message = BAD[case]
@@ -147,7 +177,7 @@ def test_bad_geometry(tmp_path, case):
         text = "[outer]\npoints = [[0,0],[10,0],[10,6],[0,6]]\n" + text
     path = write(tmp_path, text)
     with pytest.raises(InputError) as e:
-        build_mesh(path)
+        build_mesh(path, require_exits=case in ("no_exit", "entrance_only"))
     assert str(e.value).startswith(f"{path}: {key} =" if key else f"{path}:")
     assert message in str(e.value)
     assert not path.with_suffix(".msh").exists()
@@ -172,3 +202,12 @@ def test_shipped_meshes(name):
     assert non_delaunay(m) == 0
     # no obtuse triangles (except a few next to the obstacles): refinement keeps Delaunay
     assert non_delaunay(m.refined(1)) == 0 or name == "room_obstacles"
+
+
+def test_units_and_wall_thickness_options_are_for_cad_plans(tmp_path):
+    """A TOML plan is in metres and its walls carry their thickness: --units, --wall-thickness are refused."""
+    path = write(tmp_path, ROOM)
+    for option, value in (("units", "mm"), ("wall_thickness", 0.2)):
+        with pytest.raises(InputError, match=f"plan.toml: --{option.replace('_', '-')} = .*for DXF and WKT plans"):
+            build_mesh(path, cad={option: value})
+    assert not path.with_suffix(".msh").exists()
