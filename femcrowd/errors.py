@@ -1,6 +1,7 @@
-"""The one error type for bad user input (case files, meshes, geometry files).
+"""The error type for bad user input (case files, meshes, geometry files), and the interruption of a
+command that kept part of its work.
 
-The CLI prints it as a single line and exits non-zero, without a traceback.
+The CLI prints either as a single line and exits non-zero (2, 130), without a traceback.
 """
 
 
@@ -11,3 +12,8 @@ class InputError(Exception):
         self.file, self.key, self.value, self.message = str(file), key, value, message
         where = self.file if key is None else f"{self.file}: {key} = {value!r}"
         super().__init__(f"{where}: {message}")
+
+
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C (SIGINT, SIGTERM, SIGHUP) during a command that saved part of its work: the message says what
+    is kept and where."""

@@ -135,3 +135,21 @@ def test_main_help_documents_exit_codes():
     out = invoke("--help").output
     for code in ("0 ", "1 ", "2 ", "130"):
         assert f"  {code}" in out
+
+
+@pytest.mark.parametrize("where", ["before", "after"])
+def test_verbose_before_or_after_the_command(tmp_path, where):
+    """`femcrowd -v run CASE` and `femcrowd run CASE -v`: the same log on stderr; without -v, none."""
+    run = ["run", ROOT / "cases" / "room", "--set", "time.end=0.5", "--out", tmp_path / "out", "-q"]
+    result = invoke(*(["-v", *run] if where == "before" else [*run, "-v"]))
+    assert result.exit_code == 0, result.output
+    assert re.search(r"^femcrowd: set up .*case.toml: mesh [\d.e-]+ s", result.stderr, re.M)
+    assert re.search(r"^femcrowd: t = 0.5 s: mass 19.2", result.stderr, re.M)
+    quiet = invoke(*run)
+    assert quiet.exit_code == 0 and "set up" not in quiet.stderr
+
+
+def test_every_command_takes_verbose():
+    for name, command in main.commands.items():
+        assert [p for p in command.params if p.name == "verbose" and "-v" in p.opts], name
+        assert "-v, --verbose" in invoke(name, "--help").output, name
