@@ -2,22 +2,13 @@
 SCHEMA) and the commented-out options beside them; exits = the mesh's boundary groups not named wall* (interior
 line groups are offered a capacity). Every other key is in the case-format documentation."""
 
-import json
 import math
 import os
 from pathlib import Path
 
 from ..errors import InputError
+from .loading import toml_value
 from .schema import SCHEMA
-
-
-def toml_value(value):
-    """A value as TOML text (strings and lists via JSON, which is valid TOML for them)."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, dict):
-        return "{" + ", ".join(f"{k} = {toml_value(v)}" for k, v in value.items()) + "}"
-    return json.dumps(value)
 
 
 def _default(section, key):

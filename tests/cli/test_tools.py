@@ -1,7 +1,9 @@
 """femcrowd mesh / new / info and the CLI conventions (help with examples, one-line errors, exit codes)."""
 
 import csv
+import json
 import re
+import tomllib
 
 import numpy as np
 import pytest
@@ -108,6 +110,39 @@ def test_info_prints_config_mesh_statistics_and_estimate():
     assert int(steps) == pytest.approx(60 / float(dt), rel=1e-3)
     assert re.search(r"run time: [\d.]+ (s|min) \(no congestion\) to [\d.]+ (s|min) ", out)
     assert "121 frames" in out
+
+
+def config_block(out):
+    """The resolved configuration printed by femcrowd info, read as TOML."""
+    block = out.split("resolved configuration (TOML", 1)[1].split("\n", 1)[1].split("\n\n", 1)[0]
+    return tomllib.loads(block)
+
+
+def without_none(value):
+    if isinstance(value, dict):
+        return {k: without_none(v) for k, v in value.items() if v is not None}
+    return [without_none(v) for v in value] if isinstance(value, list) else value
+
+
+@pytest.mark.parametrize("case, people", [
+    ("two-groups", r"people at t = 0: 56.1\d rho_max m\^2 \(north 28.0\d, south 28.0\d\); with model.rho_max = 1"),
+    ("bottleneck", r"people at t = 0: 90.04$"),   # rho_max = 5.4: people
+    ("entrance", r"people at t = 0: 0; more arrive through \[\[sources\]\]$")])
+def test_info_configuration_is_toml_and_people_are_counted(case, people):
+    """The configuration reads back as the case's (populations with keys not set, [exact] not set, lists of
+    tables); two populations of 0.7 on 4 x 10 m each, 28 rho_max m^2; 90.04 people in the bottleneck."""
+    result = invoke("info", ROOT / "cases" / case)
+    assert result.exit_code == 0, result.output
+    assert config_block(result.output) == without_none(load_case(ROOT / "cases" / case).config)
+    assert re.search(people, result.output, re.M), result.output
+
+
+def test_info_counts_the_discs_a_micro_run_starts_with(tmp_path):
+    out = invoke("info", ROOT / "cases" / "narrow-door-micro").output
+    count = int(re.search(r"^people at t = 0: (\d+)$", out, re.M)[1])
+    result = invoke("run", ROOT / "cases" / "narrow-door-micro", "--set", "time.end=0.05", "--out", tmp_path, "-q")
+    assert result.exit_code == 0, result.output
+    assert count == json.loads((tmp_path / "summary.json").read_text())["initial_count"] == 72
 
 
 @pytest.mark.parametrize("old, new, key, message", [
