@@ -1,6 +1,7 @@
-"""The one error type for bad user input (case files, meshes, geometry files).
+"""The error type for bad user input (case files, meshes, geometry files), and the interruption of a
+command that kept part of its work.
 
-The CLI prints it as a single line and exits non-zero, without a traceback.
+The CLI prints either as a single line and exits non-zero (2, 130), without a traceback.
 """
 
 
@@ -18,3 +19,8 @@ class InputError(Exception):
             shown = f"{shown[:SHOWN]}... ({len(str(value))} characters)"
         where = self.file if key is None else f"{self.file}: {key} = {shown}"
         super().__init__(f"{where}: {message}")
+
+
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C (SIGINT, SIGTERM, SIGHUP) during a command that saved part of its work: the message says what
+    is kept and where."""

@@ -68,8 +68,9 @@ class Case:
             convergence["reference"] = moved(convergence["reference"])
         head = [f"# {self.file.name} of {self.directory} as this run used it: defaults filled, --set applied, paths",
                 "# from this directory. `femcrowd run` on this directory runs it again.\n"]
-        top = [f"{_toml_key(k)} = {_toml(v)}" for k, v in config.items() if not isinstance(v, dict) and v is not None]
-        tables = [f"\n[{_toml_key(k)}]\n" + "".join(f"{_toml_key(key)} = {_toml(value)}\n"
+        top = [f"{toml_key(k)} = {toml_value(v)}" for k, v in config.items()
+               if not isinstance(v, dict) and v is not None]
+        tables = [f"\n[{toml_key(k)}]\n" + "".join(f"{toml_key(key)} = {toml_value(value)}\n"
                                                     for key, value in v.items() if value is not None)
                   for k, v in config.items() if isinstance(v, dict)]
         return "\n".join(head + top) + "\n" + "".join(tables)
@@ -159,11 +160,11 @@ def _resolve_tables(raw, spec, file, key):
     return {label: _resolve(table, spec.keys, file, f"{key}.{label}.") for label, table in raw.items()}
 
 
-def _toml_key(key: str) -> str:
+def toml_key(key: str) -> str:
     return key if key and all(c.isalnum() or c in "_-" for c in key) else json.dumps(key)
 
 
-def _toml(value) -> str:
+def toml_value(value) -> str:
     """A value of a resolved case as TOML (written by hand: tomllib only reads, and the values are a few plain
     kinds): tables inline, None entries left out, floats exact (repr), inf and nan as TOML spells them."""
     if isinstance(value, bool):
@@ -177,7 +178,7 @@ def _toml(value) -> str:
     if isinstance(value, str):
         return json.dumps(value)
     if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(_toml(v) for v in value) + "]"
+        return "[" + ", ".join(toml_value(v) for v in value) + "]"
     if isinstance(value, dict):
-        return "{" + ", ".join(f"{_toml_key(k)} = {_toml(v)}" for k, v in value.items() if v is not None) + "}"
+        return "{" + ", ".join(f"{toml_key(k)} = {toml_value(v)}" for k, v in value.items() if v is not None) + "}"
     raise TypeError(f"no TOML for {value!r}")

@@ -3,8 +3,8 @@
 ``python -m femcrowd.case.reference`` prints it; a test checks that the page holds exactly this text.
 """
 
+from .loading import toml_value
 from .schema import REQUIRED, SCHEMA, Key, NamedTables
-from .template import toml_value
 
 
 def keys_markdown() -> str:

@@ -4,22 +4,13 @@ entrance* (interior line groups are offered a capacity); a group named entrance*
 becomes a ``[[sources]]`` entry; a mesh without an exit gets the desired velocity U = 0 to edit (not a
 direction made up for it). Every other key is in the case-format documentation."""
 
-import json
 import math
 import os
 from pathlib import Path
 
 from ..errors import InputError
+from .loading import toml_value
 from .schema import SCHEMA
-
-
-def toml_value(value):
-    """A value as TOML text (strings and lists via JSON, which is valid TOML for them)."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, dict):
-        return "{" + ", ".join(f"{k} = {toml_value(v)}" for k, v in value.items()) + "}"
-    return json.dumps(value)
 
 
 def _default(section, key):

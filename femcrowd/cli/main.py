@@ -9,11 +9,16 @@ import sys
 import click
 
 from .. import __version__
-from ..errors import InputError
+from ..errors import InputError, Interrupted
 
 
 class FemcrowdGroup(click.Group):
-    """A click group that turns InputError into a one-line message and exit code 2."""
+    """A click group that turns InputError into a one-line message and exit code 2, and gives every command
+    the group's -v/--verbose (so that it may come after the command's name as well as before)."""
+
+    def add_command(self, cmd, name=None):
+        cmd.params.append(verbose_option())
+        super().add_command(cmd, name)
 
     def invoke(self, ctx):
         try:
@@ -21,6 +26,9 @@ class FemcrowdGroup(click.Group):
         except InputError as err:
             click.echo(f"femcrowd: error: {err}", err=True)
             sys.exit(2)
+        except Interrupted as err:
+            click.echo(f"femcrowd: interrupted; {err}", err=True)
+            sys.exit(130)
         except KeyboardInterrupt:
             click.echo("femcrowd: interrupted; frames, history.csv and summary.json written so far "
                        "are kept", err=True)
@@ -60,10 +68,26 @@ def case_run_options(command):
     return command
 
 
-@click.group(cls=FemcrowdGroup, context_settings={"help_option_names": ["-h", "--help"]})
+def verbose_option() -> click.Option:
+    """-v/--verbose: femcrowd's log at INFO (solver details) on stderr. The group and each command have one."""
+    return click.Option(["-v", "--verbose"], is_flag=True, expose_value=False, callback=_configure_log,
+                        help="Log solver details on stderr.")
+
+
+def _configure_log(ctx, param, verbose):
+    """femcrowd's log on stderr, at INFO if -v was given before or after the command's name (ctx.meta is
+    shared by the group's context and the command's), WARNING otherwise."""
+    verbose = ctx.meta["femcrowd.verbose"] = ctx.meta.get("femcrowd.verbose", False) or verbose
+    log = logging.getLogger("femcrowd")
+    log.handlers[:] = [_EchoHandler()]
+    log.setLevel(logging.INFO if verbose else logging.WARNING)
+    log.propagate = False
+
+
+@click.group(cls=FemcrowdGroup, context_settings={"help_option_names": ["-h", "--help"]},
+             params=[verbose_option()])
 @click.version_option(__version__, prog_name="femcrowd")
-@click.option("-v", "--verbose", is_flag=True, help="Log solver details.")
-def main(verbose):
+def main():
     """femcrowd: crowd motion with hard congestion on unstructured meshes.
 
     \b
@@ -73,7 +97,7 @@ def main(verbose):
       femcrowd plot cases/room/output
       femcrowd info cases/room
       femcrowd mesh plan.toml -o plan.msh && femcrowd new my-case --mesh plan.msh
-      femcrowd -v run cases/room            (solver details on stderr)
+      femcrowd run cases/room -v            (solver details on stderr; -v also before the command)
 
     \b
     Exit codes:
@@ -84,10 +108,6 @@ def main(verbose):
 
     Run `femcrowd COMMAND --help` for a command's options and examples.
     """
-    log = logging.getLogger("femcrowd")
-    log.handlers[:] = [_EchoHandler()]
-    log.setLevel(logging.INFO if verbose else logging.WARNING)
-    log.propagate = False
 
 
 class _EchoHandler(logging.Handler):

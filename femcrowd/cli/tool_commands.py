@@ -6,7 +6,7 @@ from pathlib import Path
 import click
 
 from ..case import load_case
-from ..case.template import toml_value
+from ..case.loading import toml_key, toml_value
 from .main import main, set_option
 
 
@@ -153,12 +153,14 @@ def new(case_dir, mesh_file):
 @click.argument("case_dir", type=click.Path())
 @set_option
 def info(case_dir, overrides):
-    """Resolved configuration, mesh statistics and run estimate of a case.
+    """Resolved configuration, people, mesh statistics and run estimate of a case.
 
-    Mesh statistics: cells, edge lengths, angles, Delaunay check, boundary
-    groups and their lengths. Estimate: number of time steps and a run-time
-    range measured from a few steps on this machine (below 1 s for the
-    shipped cases). Nothing is written.
+    The configuration is TOML (defaults filled in, keys not set as comments).
+    People at t = 0: in all and per population (macro: the integral of the
+    initial density; micro: the discs). Mesh statistics: cells, edge lengths,
+    angles, Delaunay check, boundary groups and their lengths. Estimate:
+    number of time steps and a run-time range measured from a few steps on
+    this machine (below 1 s for the shipped cases). Nothing is written.
 
     \b
     Examples:
@@ -166,23 +168,47 @@ def info(case_dir, overrides):
       femcrowd info cases/room --set mesh.refine=2
     """
     from ..driver.estimate import case_info
+    from ..driver.people import initial_people
 
-    click.echo(format_info(case_info(load_case(case_dir, overrides))))
+    case = load_case(case_dir, overrides)
+    click.echo(format_info({**case_info(case), "people": initial_people(case), "sources": bool(case["sources"])}))
 
 
 def _duration(seconds):
     return f"{seconds:.2g} s" if seconds < 60 else f"{seconds / 60:.2g} min"
 
 
+def _config_toml(config) -> list:
+    """The resolved configuration as TOML lines, indented: the top-level values first (TOML puts every key after
+    a table header into that table), then one table per section; a key not set is a comment."""
+    def line(key, value):
+        return f"# {key}: not set" if value is None else f"{toml_key(key)} = {toml_value(value)}"
+    tables = [(k, v) for k, v in config.items() if isinstance(v, dict)]
+    lines = [f"  {line(k, v)}" for k, v in config.items() if not isinstance(v, dict)]
+    for section, values in tables:
+        lines += [f"  [{toml_key(section)}]", *(f"    {line(k, v)}" for k, v in values.items())]
+    return lines
+
+
+def _people(people, sources) -> str:
+    """People at t = 0: total, per population, and the unit when it is not people."""
+    fmt = "{:d}".format if isinstance(people["total"], int) else "{:.4g}".format
+    text = f"people at t = 0: {fmt(people['total'])}"
+    if people["unit"] != "people":
+        text += f" {people['unit']}"
+    if people["populations"]:
+        text += " (" + ", ".join(f"{name} {fmt(n)}" for name, n in people["populations"].items()) + ")"
+    if people["unit"] != "people":
+        text += ("; with model.rho_max = 1 the densities are fractions of saturation (for a count of people, "
+                 "give them in people/m^2 and rho_max = 5.4, say)")
+    return text + ("; more arrive through [[sources]]" if sources else "")
+
+
 def format_info(info):
     """The report printed by ``femcrowd info``."""
-    lines = [f"case: {info['case_file']}", "", "resolved configuration (defaults filled in):"]
-    for section, values in info["config"].items():
-        if not isinstance(values, dict):
-            lines.append(f"  {section} = {toml_value(values)}")
-            continue
-        lines.append(f"  [{section}]")
-        lines += [f"    {k} = {'(not set)' if v is None else toml_value(v)}" for k, v in values.items()]
+    lines = [f"case: {info['case_file']}", "",
+             "resolved configuration (TOML; defaults filled in, keys not set as comments):",
+             *_config_toml(info["config"]), "", _people(info["people"], info["sources"])]
     m = info["mesh"]
     lines += ["", "mesh:",
               f"  {m['triangles']} triangles, {m['nodes']} nodes, area {m['area']:.4g} m^2",

@@ -16,6 +16,7 @@ from ..mesh import Boundary, Domain, load_domain
 from ..micro.sampling import read_discs_csv, sample_discs
 from ..timer import Timer
 from .measurements import read_measurements
+from .plausibility import warn_implausible
 from .populations import build_populations, initial_density
 from .sources import read_sources
 
@@ -47,7 +48,9 @@ def build_scene(case: Case) -> Scene:
         lines, areas = read_measurements(case, domain)
     with timer("desired_velocity"):
         populations = build_populations(case, domain, boundary)
-    return Scene(case, domain, boundary, timer, populations, sources, lines, areas)
+    scene = Scene(case, domain, boundary, timer, populations, sources, lines, areas)
+    warn_implausible(scene)
+    return scene
 
 
 def door_schedule(case: Case, domain: Domain) -> dict:

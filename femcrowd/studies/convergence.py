@@ -29,16 +29,18 @@ from ..case import load_case
 from ..driver import Simulation
 from ..driver.output import prepare_output_dir
 from ..driver.scene import check_transport_cfl
-from ..errors import InputError
+from ..errors import InputError, Interrupted
 from ..macro.transport import TRANSPORTS
 from ..mesh import Domain
 from ..plot.convergence import error_plot
 from ..timer import Stopwatch
-from .execute import execute
+from .execute import StudyInterrupted, execute
 from .measures import METRICS, ExactReference, LevelReference, exact_solution, measure
 
 #: the run-time columns of convergence.csv
 TIMING = ("setup_seconds", "solve_seconds", "wall_seconds")
+#: the pictures of a study's report
+PLOTS = ("error_vs_h.png", "error_vs_time.png", "frontier.png")
 
 
 @dataclass
@@ -156,36 +158,64 @@ def _row(state, metrics):
 
 def study(case_dir, levels: int, out=None, overrides=(), cfls=(), set_values=(), times=(), serial: bool = False,
           scheduler: str | None = None, force: bool = False, echo=None) -> tuple[list, str, Path]:
-    """Run a convergence study and write its report; returns (rows, report text, output dir)."""
+    """Run a convergence study and write its report; returns (rows, report text, output dir).
+
+    Ctrl-C: the report of the levels that finished is written (their errors where their reference is known:
+    the exact solution, or a finished finest level), then Interrupted says which levels are kept, and where.
+    """
     base, exact, tasks = plan_study(case_dir, levels, overrides, cfls, set_values, times)
     out_dir = prepare_output_dir(base.output_dir(out, "convergence"), base.file, force)
-    results = execute(run_task, tasks, serial, scheduler, echo=echo)
-    rows = collect_rows(tasks, results)
     reference = reference_curves(base)
+    try:
+        results = execute(run_task, tasks, serial, scheduler, echo=echo)
+    except StudyInterrupted as stop:
+        raise Interrupted(_keep_finished(out_dir, base, exact, tasks, stop.results, reference)) from None
+    rows = collect_rows(tasks, results)
     text = write_report(out_dir, base, exact, tasks, rows, reference)
     return rows, text, out_dir
 
 
+def _keep_finished(out_dir, case, exact, tasks, results, reference) -> str:
+    """Write the report of the finished runs of an interrupted study; the line that says what is kept."""
+    finished = {}
+    for task, result in zip(tasks, results):
+        if result is not None:
+            finished.setdefault(task.series, []).append(str(task.level))
+    if not finished:
+        return f"no level of the study had finished: nothing written in {out_dir}"
+    levels = "; ".join(", ".join(v) if s == "default" else f"{s}: {', '.join(v)}" for s, v in finished.items())
+    count = sum(map(len, finished.values()))
+    write_report(out_dir, case, exact, tasks, collect_rows(tasks, results), reference,
+                 interrupted=f"interrupted: {count} of {len(tasks)} runs finished (levels {levels})")
+    plural = "s" if count > 1 else ""
+    return (f"finished level{plural} {levels} (of 0-{max(t.level for t in tasks)}) kept in "
+            f"{out_dir}/convergence.csv and convergence.md")
+
+
 def collect_rows(tasks: list, results: list) -> list:
     """One row per run and measurement time; self-convergence rows are measured here against the
-    finest level of their series (which itself gets no error)."""
+    finest level of their series (which itself gets no error). An interrupted study's results are None
+    for the runs that did not finish: they have no rows, nor have the errors of a series whose finest
+    level did not finish."""
     rows = []
     by_series = {}
     for task, result in zip(tasks, results):
         by_series.setdefault(task.series, []).append((task, result))
     for series, runs in by_series.items():
         finest = runs[-1][1]
-        if "rows" not in finest:
+        if finest is not None and "rows" not in finest:
             ref = LevelReference(*finest["mesh"], finest["states"], finest["curve"], finest["has_exits"])
         for task, result in runs:
+            if result is None:
+                continue
             if "rows" in result:
                 measured = result["rows"]
+            elif finest is None or result is finest:
+                measured = [_row(s, dict.fromkeys(METRICS, math.nan)) for s in result["states"]]
             else:
                 domain = Domain(skfem.MeshTri(np.ascontiguousarray(result["mesh"][0].T),
                                               np.ascontiguousarray(result["mesh"][1].T)))
-                measured = [_row(s, measure(domain, s, ref, result["curve"])
-                                 if result is not finest else dict.fromkeys(METRICS, math.nan))
-                            for s in result["states"]]
+                measured = [_row(s, measure(domain, s, ref, result["curve"])) for s in result["states"]]
             for m in measured:
                 rows.append({"series": series, "level": task.level, "mesh": task.mesh, "cfl": task.cfl,
                              "cells": result["cells"], "h": result["h"], **task.values,
@@ -232,8 +262,11 @@ def _metrics_present(rows):
     return [m for m in METRICS if any(math.isfinite(r[m]) for r in rows)]
 
 
-def write_report(out_dir, case, exact, tasks, rows, reference):
-    """convergence.csv, convergence.md (tables with observed orders) and the two log-log plots."""
+def write_report(out_dir, case, exact, tasks, rows, reference, interrupted: str | None = None):
+    """convergence.csv, convergence.md (tables with observed orders) and the two log-log plots.
+
+    interrupted: the note heading the report of an interrupted study, which has no plots (quicker to stop;
+    those of an earlier study in the directory are removed: they would not match the tables)."""
     columns = ["series", "level", "mesh", "cfl", "cells", "h", "steps", "time", *TIMING, *METRICS,
                "mass_error", "rho_min", "rho_max", "p_min"]
     with open(out_dir / "convergence.csv", "w", newline="") as f:
@@ -248,6 +281,7 @@ def write_report(out_dir, case, exact, tasks, rows, reference):
                    "(which has no error of its own)")
     metrics = _metrics_present(rows)
     lines = [f"# Convergence study: {case['title'] or case.directory.name}", "",
+             *([f"**{interrupted}**", ""] if interrupted else []),
              f"Case `{os.path.relpath(case.file)}`, reference: {against}.", "",
              "Each cell: error (observed order against the previous level). Run time = setup + "
              "time stepping, without output or measurement.", ""]
@@ -270,21 +304,26 @@ def write_report(out_dir, case, exact, tasks, rows, reference):
               f"min density {min(r['rho_min'] for r in rows):.3g}, "
               f"max density {max(r['rho_max'] for r in rows):.12g}, "
               f"min pressure {min(r['p_min'] for r in rows):.3g}.", "",
-              "Plots: `error_vs_h.png`, `error_vs_time.png`"
-              + (" and `frontier.png` (with the published reference figures)." if reference else "."), ""]
+              *(["Plots: `error_vs_h.png`, `error_vs_time.png`"
+                 + (" and `frontier.png` (with the published reference figures)." if reference else "."), ""]
+                if not interrupted else [])]
     text = "\n".join(lines)
     (out_dir / "convergence.md").write_text(text)
+    if interrupted:
+        for name in PLOTS:
+            (out_dir / name).unlink(missing_ok=True)
+        return text
     final = [r for r in rows if r["time"] == max(x["time"] for x in rows)]
     title = case["title"] or case.directory.name
     labels = {m: METRICS[m] for m in metrics}
-    error_plot(out_dir / "error_vs_h.png", final, labels, "h", "h: largest edge length (m)",
+    error_plot(out_dir / PLOTS[0], final, labels, "h", "h: largest edge length (m)",
                f"{title}\nerror vs mesh size at t = {final[0]['time']:g}", slopes=True)
-    error_plot(out_dir / "error_vs_time.png", final, labels, "wall_seconds",
+    error_plot(out_dir / PLOTS[1], final, labels, "wall_seconds",
                "run time (s): setup + time stepping, no output", f"{title}\nerror vs run time at t = "
                f"{final[0]['time']:g}", reference=reference)
     published = [m for m in metrics if any(metric == m for _, metric in reference)]
     if published:   # the frontier: the metrics of the published reference, larger
-        error_plot(out_dir / "frontier.png", final, {m: METRICS[m] for m in published}, "wall_seconds",
+        error_plot(out_dir / PLOTS[2], final, {m: METRICS[m] for m in published}, "wall_seconds",
                    "run time (s): setup + time stepping, no output",
                    f"{title}\nerror vs run time at t = {final[0]['time']:g}, with the published reference",
                    reference=reference, size=(6.4, 4.8))

@@ -1,11 +1,23 @@
 """Running the independent runs of a study: in this process, or through dask (a LocalCluster on this
 machine's cores, or an existing scheduler)."""
 
+import asyncio
 import logging
 import os
+import signal
+import threading
+from contextlib import contextmanager
 
 from ..errors import InputError
 from ..linalg.threads import thread_limit
+
+
+class StudyInterrupted(KeyboardInterrupt):
+    """Ctrl-C during `execute`: ``results[i]`` of every task that finished, None for the others."""
+
+    def __init__(self, results: list):
+        super().__init__()
+        self.results = results
 
 
 def execute(function, tasks: list, serial: bool = False, scheduler: str | None = None, echo=None) -> list:
@@ -14,15 +26,25 @@ def execute(function, tasks: list, serial: bool = False, scheduler: str | None =
     Bigger runs are submitted with higher priority so that the longest one starts first.
     An InputError raised in a worker comes back as the same one-line error. Each task runs
     with one BLAS/OpenMP thread, in a dask worker as in this process: the workers share the
-    cores, and run times measured either way are the same kind of number.
+    cores, and run times measured either way are the same kind of number. Ctrl-C stops the
+    runs under way and raises StudyInterrupted with the results of those that finished.
     """
     function = _catching(function)
-    if serial:
-        results = []
-        for task in tasks:
-            results.append(_unwrap(function(task)))
-            _echo(echo, task, results[-1])
-        return results
+    results = [None] * len(tasks)
+    try:
+        if serial:
+            for i, task in enumerate(tasks):
+                results[i] = _unwrap(function(task))
+                _echo(echo, task, results[i])
+        else:
+            _distributed(function, tasks, scheduler, results, echo)
+    except KeyboardInterrupt:
+        raise StudyInterrupted(results) from None
+    return results
+
+
+def _distributed(function, tasks, scheduler, results, echo):
+    """Fill results[i] = function(tasks[i]) through dask, in the order the runs finish."""
     from dask.distributed import Client, LocalCluster, as_completed
 
     if not logging.getLogger("femcrowd").isEnabledFor(logging.INFO):   # dask's INFO chatter unless -v
@@ -31,23 +53,58 @@ def execute(function, tasks: list, serial: bool = False, scheduler: str | None =
     if scheduler:
         client, cluster = Client(scheduler), None
     else:
-        cluster = LocalCluster(n_workers=os.cpu_count() or 1, threads_per_worker=1,
-                               processes=True, dashboard_address=":0",
-                               silence_logs=logging.ERROR)
+        with _sigint_ignored():
+            cluster = LocalCluster(n_workers=os.cpu_count() or 1, threads_per_worker=1,
+                                   processes=True, dashboard_address=":0",
+                                   silence_logs=logging.ERROR)
         client = Client(cluster)
     try:
-        futures = [client.submit(function, task, pure=False, priority=task.level) for task in tasks]
+        futures = [client.submit(_in_worker(function), task, pure=False, priority=task.level) for task in tasks]
         index = {f.key: i for i, f in enumerate(futures)}
-        results = [None] * len(tasks)
         for future in as_completed(futures):
             i = index[future.key]
             results[i] = _unwrap(future.result())
             _echo(echo, tasks[i], results[i])
-        return results
+    except KeyboardInterrupt:
+        if cluster is not None:   # the runs under way are dropped: stop their workers now (not after 4 s)
+            cluster.sync(_stop_workers, list(cluster.workers.values()))
+        raise
     finally:
         client.close()
         if cluster is not None:
             cluster.close()
+
+
+async def _stop_workers(nannies):
+    """Close the workers of these nannies at once, abandoning their tasks (dask waits 4 s for a busy worker)."""
+    await asyncio.gather(*(nanny.close(timeout=0.5, reason="femcrowd-interrupted") for nanny in nannies))
+
+
+@contextmanager
+def _sigint_ignored():
+    """SIGINT ignored while the LocalCluster's worker processes are spawned: they keep that disposition (an
+    ignored signal survives exec, and Python then installs no KeyboardInterrupt handler), so a terminal's
+    Ctrl-C, sent to the whole process group, is left to this process, which stops the study and keeps its
+    finished runs. A Ctrl-C during these seconds of start-up is lost."""
+    if threading.current_thread() is not threading.main_thread():   # only the main thread may set handlers
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _in_worker(function):
+    """function in a dask worker, whose tqdm (the progress bar of a run) locks with a thread lock: its default
+    multiprocessing lock is a named semaphore, which a worker stopped on Ctrl-C would leave behind (and the
+    resource tracker would then print a warning about it)."""
+    def wrapped(task):
+        from tqdm import tqdm
+        tqdm.set_lock(threading.RLock())
+        return function(task)
+    return wrapped
 
 
 def _unwrap(result):

@@ -1,7 +1,9 @@
 """femcrowd mesh / new / info and the CLI conventions (help with examples, one-line errors, exit codes)."""
 
 import csv
+import json
 import re
+import tomllib
 
 import numpy as np
 import pytest
@@ -110,6 +112,39 @@ def test_info_prints_config_mesh_statistics_and_estimate():
     assert "121 frames" in out
 
 
+def config_block(out):
+    """The resolved configuration printed by femcrowd info, read as TOML."""
+    block = out.split("resolved configuration (TOML", 1)[1].split("\n", 1)[1].split("\n\n", 1)[0]
+    return tomllib.loads(block)
+
+
+def without_none(value):
+    if isinstance(value, dict):
+        return {k: without_none(v) for k, v in value.items() if v is not None}
+    return [without_none(v) for v in value] if isinstance(value, list) else value
+
+
+@pytest.mark.parametrize("case, people", [
+    ("two-groups", r"people at t = 0: 56.1\d rho_max m\^2 \(north 28.0\d, south 28.0\d\); with model.rho_max = 1"),
+    ("bottleneck", r"people at t = 0: 90.04$"),   # rho_max = 5.4: people
+    ("entrance", r"people at t = 0: 0; more arrive through \[\[sources\]\]$")])
+def test_info_configuration_is_toml_and_people_are_counted(case, people):
+    """The configuration reads back as the case's (populations with keys not set, [exact] not set, lists of
+    tables); two populations of 0.7 on 4 x 10 m each, 28 rho_max m^2; 90.04 people in the bottleneck."""
+    result = invoke("info", ROOT / "cases" / case)
+    assert result.exit_code == 0, result.output
+    assert config_block(result.output) == without_none(load_case(ROOT / "cases" / case).config)
+    assert re.search(people, result.output, re.M), result.output
+
+
+def test_info_counts_the_discs_a_micro_run_starts_with(tmp_path):
+    out = invoke("info", ROOT / "cases" / "narrow-door-micro").output
+    count = int(re.search(r"^people at t = 0: (\d+)$", out, re.M)[1])
+    result = invoke("run", ROOT / "cases" / "narrow-door-micro", "--set", "time.end=0.05", "--out", tmp_path, "-q")
+    assert result.exit_code == 0, result.output
+    assert count == json.loads((tmp_path / "summary.json").read_text())["initial_count"] == 72
+
+
 @pytest.mark.parametrize("old, new, key, message", [
     ("[[0, 0], [3, 0], [3, 1], [0, 1]]", "[[0, 0], [3, 1], [3, 0], [0, 1]]", "outer.points", "intersects itself"),
     ("from = [3, 0]", "from = [3.5, 0]", "exits[1]", "must lie on one straight edge"),
@@ -135,3 +170,21 @@ def test_main_help_documents_exit_codes():
     out = invoke("--help").output
     for code in ("0 ", "1 ", "2 ", "130"):
         assert f"  {code}" in out
+
+
+@pytest.mark.parametrize("where", ["before", "after"])
+def test_verbose_before_or_after_the_command(tmp_path, where):
+    """`femcrowd -v run CASE` and `femcrowd run CASE -v`: the same log on stderr; without -v, none."""
+    run = ["run", ROOT / "cases" / "room", "--set", "time.end=0.5", "--out", tmp_path / "out", "-q"]
+    result = invoke(*(["-v", *run] if where == "before" else [*run, "-v"]))
+    assert result.exit_code == 0, result.output
+    assert re.search(r"^femcrowd: set up .*case.toml: mesh [\d.e-]+ s", result.stderr, re.M)
+    assert re.search(r"^femcrowd: t = 0.5 s: mass 19.2", result.stderr, re.M)
+    quiet = invoke(*run)
+    assert quiet.exit_code == 0 and "set up" not in quiet.stderr
+
+
+def test_every_command_takes_verbose():
+    for name, command in main.commands.items():
+        assert [p for p in command.params if p.name == "verbose" and "-v" in p.opts], name
+        assert "-v, --verbose" in invoke(name, "--help").output, name
