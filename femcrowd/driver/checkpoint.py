@@ -10,7 +10,6 @@ linear solvers are rebuilt (another factorisation order, no warm start), not the
 
 import hashlib
 import json
-import os
 import zipfile
 from pathlib import Path
 
@@ -18,6 +17,7 @@ import numpy as np
 
 from .. import __version__
 from ..errors import InputError
+from .ownership import replaced
 
 NAME = "checkpoint.npz"
 
@@ -35,10 +35,8 @@ def write(directory, identity: dict, state: dict, rows: dict, position: dict) ->
     arrays = {f"state/{k}": np.asarray(v) for k, v in state.items()}
     arrays.update({f"row/{k}": np.asarray(v) for k, v in rows.items()})
     meta = json.dumps({"identity": identity, "position": position}, default=str)
-    tmp = Path(directory) / (NAME + ".tmp")
-    with open(tmp, "wb") as f:
+    with replaced(Path(directory) / NAME) as tmp, open(tmp, "wb") as f:
         np.savez(f, meta=np.array(meta), **arrays)
-    os.replace(tmp, Path(directory) / NAME)
 
 
 def read(directory, identity: dict) -> tuple[dict, dict, dict]:

@@ -1,8 +1,10 @@
 """Writing a run: the output directory, VTU frames + PVD collection, history.csv, summary.json, checkpoints.
 
 Every file is written so that an interrupted run leaves what it wrote readable:
-frames are complete files, the PVD index and summary.json are replaced
-atomically, history.csv is flushed row by row. A directory holding files that
+frames, the PVD index, summary.json and the checkpoint are written under names of
+their own and moved in place, history.csv is flushed row by row (ownership.py: the
+lock that makes a directory one run's, writes that never follow a link out of
+it, write errors as one line). A directory holding files that
 femcrowd did not write is never written into unless the user forces it. A new
 run in a directory of an earlier run replaces that run's files (and says so);
 pictures made by ``femcrowd plot`` live apart, in ``plots/``, and are left alone.
@@ -18,17 +20,29 @@ import meshio
 import numpy as np
 
 from ..errors import InputError
+from .ownership import LOCK, TEMPORARY, RunLock, appending, remove_temporaries, replaced, writing
 
 log = logging.getLogger("femcrowd")
 
 MARKER = ".femcrowd-run"
 #: the files of a run: cleared when a new run replaces an old one
 RUN_FILES = ("solution_*.vtu", "discs_*.vtu", "solution.pvd", "discs.pvd", "history.csv", "summary.json",
-             "case.toml", "checkpoint.npz", "measurements.csv", "trajectories.txt", "walkable_area.wkt")
+             "case.toml", "checkpoint.npz", "measurements.csv", "trajectories.txt", "walkable_area.wkt", TEMPORARY)
 
 
 def prepare_output_dir(path, case_file, force=False) -> Path:
-    """Create the output directory, or clear a previous femcrowd run in it; refuse foreign ones.
+    """The directory of a study, made ready as a run's is (own_output_dir); its runs write in directories of
+    their own, each locked by its run."""
+    lock = own_output_dir(path, case_file, force)
+    lock.release()
+    return lock.directory
+
+
+def own_output_dir(path, case_file, force=False, resume=False) -> RunLock:
+    """The output directory of a run, locked for it (ownership.RunLock) before anything in it changes: created,
+    or cleared of an earlier femcrowd run; resume: the directory of the run to continue, kept as it is but for
+    the temporary files of a killed run. Refused with one line: a file, a foreign directory (unless force),
+    the case's own directory, a directory that another run is writing.
 
     The marker that allows a later run to clear the directory is only left where
     femcrowd owns the directory (new, empty, or marked): after --force into a
@@ -36,9 +50,18 @@ def prepare_output_dir(path, case_file, force=False) -> Path:
     deletes a file it did not write.
     """
     path = Path(path)
+    case_file = Path(case_file)
+    if path.is_dir() and case_file.is_file() and os.path.samefile(path, case_file.parent):
+        raise InputError(case_file, "output.dir", str(path), "is the case's own directory: a run would replace "
+                         "its case.toml (choose another --out)")
+    if resume:
+        lock = RunLock(path).acquire()
+        with writing(path):
+            remove_temporaries(path)
+        return lock
     if path.exists() and not path.is_dir():
         raise InputError(case_file, "output.dir", str(path), "exists and is not a directory")
-    if path.is_dir() and any(path.iterdir()) and not (path / MARKER).exists() and not force:
+    if path.is_dir() and _entries(path) and not (path / MARKER).exists() and not force:
         raise InputError(case_file, "output.dir", str(path),
                          "directory is not empty and was not written by femcrowd "
                          "(choose another --out, or pass --force to write into it)")
@@ -46,6 +69,22 @@ def prepare_output_dir(path, case_file, force=False) -> Path:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise InputError(case_file, "output.dir", str(path), f"cannot create: {err.strerror}") from None
+    lock = RunLock(path).acquire()
+    try:
+        with writing(path):
+            _clear(path)
+    except BaseException:
+        lock.release()
+        raise
+    return lock
+
+
+def _entries(path) -> list:
+    return [p for p in path.iterdir() if p.name != LOCK]
+
+
+def _clear(path) -> None:
+    """Remove an earlier femcrowd run (marked directory), or mark a new one."""
     if (path / MARKER).exists():
         old = [f for pattern in RUN_FILES for f in path.glob(pattern)]
         for f in old:
@@ -54,16 +93,14 @@ def prepare_output_dir(path, case_file, force=False) -> Path:
             plots = " (its pictures in plots/ are kept: `femcrowd plot` remakes them)" \
                 if (path / "plots").is_dir() else ""
             log.warning("replacing the earlier run in %s: %d files%s", path, len(old), plots)
-    elif not any(path.iterdir()):
+    elif not _entries(path):
         (path / MARKER).write_text("written by femcrowd; safe to overwrite with a new run\n")
-    return path
 
 
 def write_json(path, data) -> None:
-    """Write JSON atomically (a reader never sees half a file)."""
-    tmp = Path(path).with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(data, indent=2, default=_json_default) + "\n")
-    os.replace(tmp, path)
+    """Write JSON atomically (a reader never sees half a file; ownership.replaced)."""
+    with replaced(path) as tmp:
+        tmp.write_text(json.dumps(data, indent=2, default=_json_default) + "\n")
 
 
 def _json_default(value):
@@ -88,12 +125,14 @@ class FrameSeries:
             keep = {name for _, name in self.frames}
             for old in self.directory.glob(f"{stem}_*.vtu"):
                 if old.name not in keep:
-                    old.unlink()
+                    with writing(old):
+                        old.unlink()
             self._index()
 
     def write(self, t, mesh):
         name = f"{self.stem}_{len(self.frames):05d}.vtu"
-        meshio.vtu.write(str(self.directory / name), mesh, binary=True, compression="zlib")
+        with replaced(self.directory / name) as tmp:
+            meshio.vtu.write(str(tmp), mesh, binary=True, compression="zlib")
         self.frames.append((float(t), name))
         self._index()
 
@@ -103,9 +142,8 @@ class FrameSeries:
                          for t, f in self.frames)
         text = ('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1" '
                 f'byte_order="LittleEndian">\n  <Collection>\n{rows}\n  </Collection>\n</VTKFile>\n')
-        tmp = self.directory / f"{self.stem}.pvd.tmp"
-        tmp.write_text(text)
-        os.replace(tmp, self.directory / f"{self.stem}.pvd")
+        with replaced(self.directory / f"{self.stem}.pvd") as tmp:
+            tmp.write_text(text)
 
 
 def triangle_frame(domain, cell_data) -> meshio.Mesh:
@@ -127,22 +165,25 @@ def disc_frame(q, r, u, pressure, extra=None) -> meshio.Mesh:
 
 class HistoryFile:
     """history.csv, one row per step, flushed so that an interrupted run keeps it; rows: those of the
-    steps already done (a resumed run)."""
+    steps already done (a resumed run), written with the header into a new file (ownership.replaced)."""
 
     def __init__(self, path, columns, rows=()):
-        self.columns = columns
-        self._file = open(path, "w", newline="")
+        self.path, self.columns = Path(path), columns
+        with replaced(path) as tmp, open(tmp, "w", newline="") as f:
+            writer = csv.writer(f)
+            writer.writerow(columns)
+            writer.writerows([_fmt(row[c]) for c in columns] for row in rows)
+        self._file = appending(path, newline="")
         self._writer = csv.writer(self._file)
-        self._writer.writerow(columns)
-        for row in rows:
-            self.append(row)
 
     def append(self, row) -> None:
-        self._writer.writerow([_fmt(row[c]) for c in self.columns])
-        self._file.flush()
+        with writing(self.path):
+            self._writer.writerow([_fmt(row[c]) for c in self.columns])
+            self._file.flush()
 
     def close(self) -> None:
-        self._file.close()
+        with writing(self.path):
+            self._file.close()
 
 
 def _fmt(value):

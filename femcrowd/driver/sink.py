@@ -2,10 +2,13 @@
 measurements.csv, the model's own files (disc trajectories), the checkpoints and summary.json; or nothing at
 all, for a run without an output directory (the Python API, the studies)."""
 
+from contextlib import suppress
 from pathlib import Path
 
+from ..errors import InputError
 from . import checkpoint
-from .output import FrameSeries, HistoryFile, prepare_output_dir, write_json
+from .output import FrameSeries, HistoryFile, own_output_dir, write_json
+from .ownership import replaced, writing
 
 
 class RunFiles:
@@ -14,13 +17,14 @@ class RunFiles:
     timer's "output"."""
 
     def __init__(self, directory, case, model, recorder, identity: dict, timer, timing, position=None,
-                 resume: bool = False):
+                 resume: bool = False, lock=None):
         self.directory, self.model, self.recorder = directory, model, recorder
-        self.identity, self.timer, self.timing = identity, timer, timing
+        self.identity, self.timer, self.timing, self.lock = identity, timer, timing, lock
         self.frames, self.sinks = None, []
         if directory is None:
             return
-        (directory / "case.toml").write_text(case.resolved_toml(directory))   # runs again on its own
+        with replaced(directory / "case.toml") as tmp:
+            tmp.write_text(case.resolved_toml(directory))   # runs again on its own
         self.frames = FrameSeries(directory, model.stem, (position or {}).get("frames"))
         recorder.sink = HistoryFile(directory / "history.csv", recorder.history_columns, recorder.records())
         self.sinks.append(recorder.sink)
@@ -33,15 +37,27 @@ class RunFiles:
     @classmethod
     def open(cls, out, case, model, recorder, identity, timer, timing, force=False, resume=False):
         """The files of a new run in `out` (relative to the current directory; None: no files), or of the run whose
-        checkpoint is there (resume: the model and the record continue from it). Returns (files, position)."""
-        position = {}
-        if resume:   # checked before anything is written
-            state, rows, position = checkpoint.read(out, identity)
-            checkpoint.restore(out, case, model, recorder, state, rows)
-            directory = Path(out)
-        else:
-            directory = prepare_output_dir(out, case.file, force) if out is not None else None
-        return cls(directory, case, model, recorder, identity, timer, timing, position, resume), position
+        checkpoint is there (resume: the model and the record continue from it). Returns (files, position).
+        The directory is the run's from before anything in it changes until summary() (ownership.RunLock)."""
+        position, lock = {}, None
+        try:
+            if resume:   # checked before anything is written
+                if (Path(out) / checkpoint.NAME).is_file():   # else read() refuses, nothing created
+                    lock = own_output_dir(out, case.file, resume=True)
+                state, rows, position = checkpoint.read(out, identity)
+                checkpoint.restore(out, case, model, recorder, state, rows)
+            elif out is not None:
+                lock = own_output_dir(out, case.file, force)
+            directory = lock.directory if lock is not None else None
+            with writing(directory):
+                files = cls(directory, case, model, recorder, identity, timer, timing, position, resume, lock)
+        except BaseException:
+            if lock is not None:
+                lock.release()
+            raise
+        if lock is not None:
+            lock.settled()
+        return files, position
 
     def frame(self) -> None:
         """The model's frame at its time."""
@@ -57,10 +73,22 @@ class RunFiles:
                                  {"frames": self.frames.frames, "next_frame": next_frame, "timing": self.timing()})
 
     def close(self) -> None:
+        """Close the files. Their rows are flushed as they are written: a close fails only after a write
+        that failed, and that write's error is the one reported."""
         with self.timer("output"):
             for sink in self.sinks:
-                sink.close()
+                with suppress(InputError):
+                    sink.close()
 
     def summary(self, summary: dict) -> None:
-        if self.directory is not None:
-            write_json(self.directory / "summary.json", summary)
+        """Write summary.json (a failed run keeps its own error if this write fails too), then let the directory
+        go: another run may take it."""
+        try:
+            if self.directory is not None:
+                write_json(self.directory / "summary.json", summary)
+        except InputError:
+            if not summary["status"].startswith("failed"):
+                raise
+        finally:
+            if self.lock is not None:
+                self.lock.release()

@@ -14,6 +14,7 @@ import shapely
 
 from ..mesh import Domain
 from ..mesh.outline import walkable_area
+from .ownership import appending, replaced, writing
 
 
 class TrajectoryFile:
@@ -23,29 +24,32 @@ class TrajectoryFile:
         """frame: the next frame of a resumed run (the rows of the later frames, written after its
         checkpoint, are dropped)."""
         directory = Path(directory)
-        (directory / "walkable_area.wkt").write_text(shapely.to_wkt(walkable_area(domain), rounding_precision=9)
-                                                     + "\n")
+        with replaced(directory / "walkable_area.wkt") as tmp:
+            tmp.write_text(shapely.to_wkt(walkable_area(domain), rounding_precision=9) + "\n")
         self.rate = rate
         self.frame = frame or 0   # the next frame to write
-        path = directory / "trajectories.txt"
-        kept = [] if frame is None else [line for line in path.read_text().splitlines(keepends=True)
+        self.path = directory / "trajectories.txt"
+        kept = [] if frame is None else [line for line in self.path.read_text().splitlines(keepends=True)
                                          if line.startswith("#") or int(line.split("\t")[1]) < frame]
-        self._file = open(path, "w")
-        if frame is None:
-            self._file.write(f"# framerate: {rate:g}\n# unit: m\n# written by femcrowd (disc model)\n"
-                             "# ID\tFR\tX\tY\tZ\n")
-        self._file.writelines(kept)
+        head = "" if frame is not None else (f"# framerate: {rate:g}\n# unit: m\n# written by femcrowd (disc model)\n"
+                                             "# ID\tFR\tX\tY\tZ\n")
+        with replaced(self.path) as tmp:
+            tmp.write_text(head + "".join(kept))
+        self._file = appending(self.path)
 
     def start(self, t: float, ids: np.ndarray, q: np.ndarray) -> None:
         """The frames up to t (the initial discs, at rest before t = 0)."""
-        while self.frame / self.rate <= t + 1e-12:
-            self._write(ids, q)
+        with writing(self.path):
+            while self.frame / self.rate <= t + 1e-12:
+                self._write(ids, q)
+            self._file.flush()
 
     def step(self, t: float, dt: float, ids: np.ndarray, q: np.ndarray, u: np.ndarray) -> None:
         """The frames in (t - dt, t] of a step that ended at t with the discs (ids, q) moving at u."""
-        while self.frame / self.rate <= t + 1e-12:
-            self._write(ids, q - (t - self.frame / self.rate) * u)
-        self._file.flush()
+        with writing(self.path):
+            while self.frame / self.rate <= t + 1e-12:
+                self._write(ids, q - (t - self.frame / self.rate) * u)
+            self._file.flush()
 
     def _write(self, ids, q) -> None:
         rows = np.column_stack([ids, np.full(len(ids), self.frame), q, np.zeros(len(ids))])
@@ -53,4 +57,5 @@ class TrajectoryFile:
         self.frame += 1
 
     def close(self) -> None:
-        self._file.close()
+        with writing(self.path):
+            self._file.close()

@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..driver.ownership import reading
 from ..driver.reading import RunDirectory
 from ..errors import InputError
 from ..mesh import Boundary, file_checksum, load_domain
@@ -293,7 +294,13 @@ def curves(run, out):
 
 def plot_run(directory, times=None, animate=True, out=None, mp4=False, quiet=True) -> list:
     """Write the pictures, animation and curves of a run into out (default: directory/plots); returns
-    the written paths."""
+    the written paths. The directory is held for reading meanwhile (driver/ownership.py): a run in progress
+    may be plotted, a new run into it is refused."""
+    with reading(directory):
+        return _plot_run(directory, times, animate, out, mp4, quiet)
+
+
+def _plot_run(directory, times, animate, out, mp4, quiet) -> list:
     run = RunDirectory(directory)
     if animate and mp4 and importlib.util.find_spec("imageio_ffmpeg") is None:
         raise InputError(run.directory, "--mp4", True,
