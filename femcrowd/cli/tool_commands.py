@@ -140,9 +140,11 @@ def info(case_dir, overrides):
     """Resolved configuration, mesh statistics and run estimate of a case.
 
     Mesh statistics: cells, edge lengths, angles, Delaunay check, boundary
-    groups and their lengths. Estimate: number of time steps and a run-time
-    range measured from a few steps on this machine (below 1 s for the
-    shipped cases). Nothing is written.
+    groups and their lengths. Estimate: time step, steps, frames, memory and
+    files, the plan `femcrowd run` checks against its limits (a case beyond
+    them is named with the line the run would stop with), and for macro cases
+    a run-time range measured from a few steps on this machine (below 1 s for
+    the shipped cases). Nothing is written.
 
     \b
     Examples:

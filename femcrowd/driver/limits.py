@@ -99,11 +99,12 @@ class Plan:
             return
         if spec["count"] is not None:
             count, key = spec["count"], ("micro.count", spec["count"])
-        else:   # what sample_discs draws from the density (driver/scene.py, initial_discs)
+        else:   # what sample_discs draws from the density (driver/scene.py, initial_discs), in its phase
             domain = scene.domain
-            rho = initial_densities(case, domain).sum(axis=0)
-            count = target_count(lambda xy: rho[np.maximum(domain.locate(xy), 0)], domain.points, domain.triangles,
-                                 spec["radius"])
+            with scene.timer("discs"):
+                rho = initial_densities(case, domain).sum(axis=0)
+                count = target_count(lambda xy: rho[np.maximum(domain.locate(xy), 0)], domain.points,
+                                     domain.triangles, spec["radius"])
             key = ("micro.radius", spec["radius"])
         self.values["discs"] = count
         over = self._memory()
