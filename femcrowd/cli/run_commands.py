@@ -14,7 +14,11 @@ from .main import case_run_options, main
 @click.option("--resume", is_flag=True,
               help="Continue the run in the output directory from its checkpoint (written at every frame and on "
                    "Ctrl-C), e.g. after an interruption or with a larger time.end.")
-def run(case_dir, overrides, out, force, quiet, threads, resume):
+@click.option("--no-limits", is_flag=True,
+              help="Run even what the estimate finds beyond the limits: more than 1e5 frames or 1e8 steps, more "
+                   "than 80 % of this machine's memory, more than 50 GB of files (docs/tools.md, \"Limits\"; "
+                   "femcrowd info shows the estimate).")
+def run(case_dir, overrides, out, force, quiet, threads, resume, no_limits):
     """Run the case in CASE_DIR (a directory with case.toml).
 
     \b
@@ -24,10 +28,12 @@ def run(case_dir, overrides, out, force, quiet, threads, resume):
       femcrowd run cases/room --resume            (continue after Ctrl-C)
     """
     from ..driver import run as run_case
+    from ..driver.limits import LIMITS
     from ..driver.remaining import remaining_text
 
     case = load_case(case_dir, overrides)
-    summary = run_case(case, out, force, quiet, threads=threads, resume=resume).summary
+    summary = run_case(case, out, force, quiet, threads=threads, resume=resume,
+                       limits=None if no_limits else LIMITS).summary
     if case["model"]["type"] == "micro":
         click.echo(f"{summary['status']}: {summary['steps']} steps to t = {summary['final_time']:.4g} s "
                    f"in {summary['timing']['wall']:.1f} s; {summary['initial_count']} discs, "

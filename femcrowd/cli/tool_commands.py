@@ -158,9 +158,12 @@ def info(case_dir, overrides):
     The configuration is TOML (defaults filled in, keys not set as comments).
     People at t = 0: in all and per population (macro: the integral of the
     initial density; micro: the discs). Mesh statistics: cells, edge lengths,
-    angles, Delaunay check, boundary groups and their lengths. Estimate:
-    number of time steps and a run-time range measured from a few steps on
-    this machine (below 1 s for the shipped cases). Nothing is written.
+    angles, Delaunay check, boundary groups and their lengths. Estimate: time
+    step, steps, frames, memory and files, the plan `femcrowd run` checks
+    against its limits (a case beyond them is named with the line the run
+    would stop with), and for macro cases a run-time range measured from a
+    few steps on this machine (below 1 s for the shipped cases). Nothing is
+    written.
 
     \b
     Examples:
@@ -171,7 +174,10 @@ def info(case_dir, overrides):
     from ..driver.people import initial_people
 
     case = load_case(case_dir, overrides)
-    click.echo(format_info({**case_info(case), "people": initial_people(case), "sources": bool(case["sources"])}))
+    info = case_info(case)
+    if "over" not in info:   # a case beyond the limits is not set up (its discs not sampled)
+        info.update(people=initial_people(case), sources=bool(case["sources"]))
+    click.echo(format_info(info))
 
 
 def _duration(seconds):
@@ -204,33 +210,61 @@ def _people(people, sources) -> str:
     return text + ("; more arrive through [[sources]]" if sources else "")
 
 
+def _count(n):
+    return f"{n}" if isinstance(n, int) and n < 10 ** 9 else f"{n:.3g}"
+
+
+def _bytes(n):
+    return f"{n / 1e9:.3g} GB" if n >= 1e9 else f"{n / 1e6:.3g} MB"
+
+
+def _mesh_lines(info) -> list:
+    """The mesh statistics of `femcrowd info` (none for a mesh too large to be built)."""
+    m = info.get("mesh")
+    if m is None:
+        return []
+    lines = ["", "mesh:",
+             f"  {m['triangles']} triangles, {m['nodes']} nodes, area {m['area']:.4g} m^2",
+             f"  edge length h: min {m['h_min']:.3g} m, max {m['h_max']:.3g} m",
+             f"  angles: min {m['min_angle_deg']:.1f} deg, max {m['max_angle_deg']:.1f} deg; "
+             f"smallest cell {m['min_cell_area']:.3g} m^2",
+             "  Delaunay: " + ("yes (all interior pairs)" if m["non_delaunay_pairs"] == 0 else
+                               f"NO: {m['non_delaunay_pairs']} non-Delaunay pairs") +
+             f"; {m['clipped_transmissibilities']} transmissibilities clipped to keep the M-matrix",
+             "  boundary groups:"]
+    for name, length in m["boundary_groups"].items():
+        lines.append(f"    {name:<16} {length:9.4g} m   {'exit' if name in info['exits'] else 'wall'}")
+    return lines
+
+
 def format_info(info):
     """The report printed by ``femcrowd info``."""
     lines = [f"case: {info['case_file']}", "",
              "resolved configuration (TOML; defaults filled in, keys not set as comments):",
-             *_config_toml(info["config"]), "", _people(info["people"], info["sources"])]
-    m = info["mesh"]
-    lines += ["", "mesh:",
-              f"  {m['triangles']} triangles, {m['nodes']} nodes, area {m['area']:.4g} m^2",
-              f"  edge length h: min {m['h_min']:.3g} m, max {m['h_max']:.3g} m",
-              f"  angles: min {m['min_angle_deg']:.1f} deg, max {m['max_angle_deg']:.1f} deg; "
-              f"smallest cell {m['min_cell_area']:.3g} m^2",
-              "  Delaunay: " + ("yes (all interior pairs)" if m["non_delaunay_pairs"] == 0 else
-                                f"NO: {m['non_delaunay_pairs']} non-Delaunay pairs") +
-              f"; {m['clipped_transmissibilities']} transmissibilities clipped to keep the M-matrix",
-              "  boundary groups:"]
-    for name, length in m["boundary_groups"].items():
-        lines.append(f"    {name:<16} {length:9.4g} m   {'exit' if name in info['exits'] else 'wall'}")
+             *_config_toml(info["config"])]
+    if "people" in info:
+        lines += ["", _people(info["people"], info["sources"])]
+    lines += _mesh_lines(info)
+    p = info["plan"]
+    lines += ["", "run estimate (the limits of femcrowd run: docs/tools.md, \"Limits\"):"]
+    if "triangles" in p and "mesh" not in info:
+        lines.append(f"  {_count(p['triangles'])} triangles after mesh.refine = {info['config']['mesh']['refine']}")
+    if "discs" in p:
+        lines.append(f"  {_count(p['discs'])} discs")
+    if "steps" in p:
+        lines += [f"  time step {p['dt']:.4g} s -> about {_count(p['steps'])} steps"
+                  " (fewer if everybody has left before the end)",
+                  f"  {_count(p['frames'])} frames, about {_bytes(p['disk'])} of files"]
+    lines.append(f"  memory: about {_bytes(p['memory'])}")
+    if "over" in info:
+        lines.append(f"  beyond a limit: femcrowd run refuses it: {info['over']}")
     e = info.get("estimate")
     if e is None:
-        lines += ["", "run estimate: macro cases only"]
+        if info["config"]["model"]["type"] == "micro":
+            lines.append("  run time: measured for macro cases only")
         return "\n".join(lines)
     low, high = e["seconds"]
-    lines += ["", "run estimate:",
-              f"  time step {e['dt']:.4g} s -> about {e['steps']} steps"
-              " (fewer if everybody has left before the end)",
-              f"  {e['frames']} frames",
-              f"  run time: {_duration(low)} (no congestion) to {_duration(high)} "
+    lines += [f"  run time: {_duration(low)} (no congestion) to {_duration(high)} "
               f"(the initial crowd's {e['congested_cells']} cells congested at every step)",
               f"  measured here: {1e3 * e['free_step_seconds']:.3g} ms per free step, "
               f"{1e3 * e['congested_step_seconds']:.3g} ms per congested step, "

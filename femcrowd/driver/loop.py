@@ -10,6 +10,7 @@ import signal
 import threading
 from dataclasses import dataclass
 
+import numpy as np
 from tqdm import tqdm
 
 log = logging.getLogger("femcrowd")
@@ -32,9 +33,10 @@ class Controller:
         sink.frame() is called at t = 0, at each frame time and after the last step, sink.checkpoint(next_frame)
         after each frame and when the run is interrupted. The loop ends at the end, or once the model is empty
         (``model.empty()``). A Ctrl-C ends the step under way (a second one stops at once), checkpoints, then
-        raises KeyboardInterrupt; whatever else a step raises goes on to the caller. next_frame: the index of the
-        next frame of a resumed run (its row at t and its frame are already written). The seconds of the loop's
-        own work (rows, progress, stops) go to the timer's "recording"."""
+        raises KeyboardInterrupt; a step that does not advance t checkpoints and raises Stalled; whatever else a
+        step raises goes on to the caller. next_frame: the index of the next frame of a resumed run (its row at t
+        and its frame are already written). The seconds of the loop's own work (rows, progress, stops) go to the
+        timer's "recording"."""
         if next_frame is None:
             with timer("recording"):
                 recorder.add(model.row())
@@ -67,6 +69,9 @@ class Controller:
                     if interrupted:
                         sink.checkpoint(frames)
                         raise KeyboardInterrupt
+                    if model.t <= before:   # the step is below one ulp of t: t would never advance
+                        sink.checkpoint(frames)
+                        raise Stalled(model.t, info.dt)
                     if emptied:
                         bar.total = model.t   # the crowd is out: the bar ends here, not at time.end
                         break
@@ -77,6 +82,14 @@ class Controller:
     def _frame(sink, index):
         sink.frame()
         sink.checkpoint(index)
+
+
+class Stalled(Exception):
+    """A step that left t where it was (its dt below the resolution of t): the run would go on for ever."""
+
+    def __init__(self, t: float, dt: float):
+        super().__init__(f"the run cannot advance beyond t = {t!r} s: its step dt = {dt:.3g} s is below the "
+                         f"resolution of t ({np.spacing(t):.3g} s)")
 
 
 #: the signals that end a run after its step, as Ctrl-C does: SIGTERM (kill, a batch system's time limit) and

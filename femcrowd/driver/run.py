@@ -15,11 +15,13 @@ from pathlib import Path
 
 from .. import __version__
 from ..case import Case
+from ..errors import InputError
 from ..linalg.threads import thread_limit
 from ..mesh import Domain, file_checksum
 from ..timer import Stopwatch, Timer
 from . import checkpoint
-from .loop import Controller
+from .limits import LIMITS, Limits, Plan
+from .loop import Controller, Stalled
 from .macro_model import MacroModel
 from .micro_model import MicroModel
 from .recorder import Recorder
@@ -55,21 +57,25 @@ class Simulation:
     """A case set up for a run: the scene and the model's initial state; nothing written yet.
 
     Building it checks the whole case (mesh, exits, expressions, initial crowd): a bad case
-    raises InputError here, before any output directory is touched. ``threads``: the size of the
-    BLAS and OpenMP thread pools during the set-up and the run (threadpoolctl). The default, 1,
-    is femcrowd's best choice on a shared machine: its work is sparse (mat-vecs, CHOLMOD's
-    supernodes of a 2-D mesh), where more threads gain little and spin against other processes
-    (docs/performance.md, "Threads").
+    raises InputError here, before any output directory is touched; so does a run that plans more
+    than `limits` allow (``plan``: frames, steps, memory, disk; driver/limits.py; None: no limits).
+    ``threads``: the size of the BLAS and OpenMP thread pools during the set-up and the run
+    (threadpoolctl). The default, 1, is femcrowd's best choice on a shared machine: its work is
+    sparse (mat-vecs, CHOLMOD's supernodes of a 2-D mesh), where more threads gain little and spin
+    against other processes (docs/performance.md, "Threads").
     """
 
-    def __init__(self, case: Case, threads: int = 1):
+    def __init__(self, case: Case, threads: int = 1, limits: Limits | None = LIMITS):
         self._wall = Stopwatch()
         self.case, self.threads = case, threads
         self.timer = Timer()   # the run's own phases: output and recording (the model times its steps)
+        self.plan = Plan(case, limits)   # each stage checked before it is done (LimitError)
         with thread_limit(threads):
             self.threads_seconds = self._wall.seconds  # finding the pools, once per process
-            self.scene = build_scene(case)
+            self.scene = build_scene(case, self.plan)   # the mesh's size, before refining
+            self.plan.discs(self.scene)
             self.model = MODELS[case["model"]["type"]](self.scene)
+            self.plan.run(self.model)
         log.info("set up %s: %s", case.file, ", ".join(f"{k} {v:.3g} s" for k, v in self.scene.timer.items()))
 
     def run(self, out=None, force: bool = False, quiet: bool = True, stops=(), on_stop=None,
@@ -80,7 +86,8 @@ class Simulation:
         stops, on_stop: times at which to call on_stop(recorder) (studies); stop_when_empty=False runs to
         time.end even when the crowd has left; resume: continue the run whose checkpoint is in `out`
         (checkpoint.py). Returns the Result; summary["status"] is "completed", or "interrupted" /
-        "failed: ..." when the loop raised (the exception goes on, after the summary is written).
+        "failed: ..." when the loop raised (the exception goes on, after the summary is written), or
+        "stopped: ..." when a step could not advance t (then an InputError naming the key responsible).
         """
         case, model, domain = self.case, self.model, self.scene.domain
         model.evacuation.stop &= stop_when_empty
@@ -99,6 +106,9 @@ class Simulation:
         except KeyboardInterrupt:
             self._finish(files, recorder, summary, "interrupted", position)
             raise
+        except Stalled as err:   # a step below the resolution of t: one line, as bad input
+            self._finish(files, recorder, summary, f"stopped: {err}", position)
+            raise InputError(case.file, *self.plan.steps_key(model), str(err)) from None
         except Exception as err:
             self._finish(files, recorder, summary, f"failed: {type(err).__name__}: {err}", position)
             raise
@@ -125,9 +135,10 @@ class Simulation:
 
 
 def run(case: Case, out=None, force: bool = False, quiet: bool = True, files: bool = True,
-        threads: int = 1, resume: bool = False) -> Result:
+        threads: int = 1, resume: bool = False, limits: Limits | None = LIMITS) -> Result:
     """Run a case into `out` (relative to the current directory; default: output.dir of the case,
     relative to the case file), or without writing anything when files is False; resume: continue
-    the interrupted (or shorter) run in that directory from its checkpoint."""
-    simulation = Simulation(case, threads)
+    the interrupted (or shorter) run in that directory from its checkpoint; limits: what the run may
+    plan (driver/limits.py; None: no limits)."""
+    simulation = Simulation(case, threads, limits)
     return simulation.run(case.output_dir(out) if files else None, force, quiet, resume=resume)

@@ -37,12 +37,13 @@ class Scene:
     areas: list = field(default_factory=list)
 
 
-def build_scene(case: Case) -> Scene:
-    """Load the mesh and build the desired velocity of each population (timed: mesh, desired_velocity)."""
+def build_scene(case: Case, plan=None) -> Scene:
+    """Load the mesh and build the desired velocity of each population (timed: mesh, desired_velocity); plan: a
+    run's Plan (driver/limits.py), told the mesh's size before it is refined."""
     timer = Timer()
     with timer("mesh"):
         domain = load_domain(case.path(case["mesh"]["file"]), case["boundary"]["exits"],
-                             case["mesh"]["refine"], case.file)
+                             case["mesh"]["refine"], case.file, plan.mesh if plan is not None else None)
         boundary = Boundary(domain, door_schedule(case, domain), door_capacity(case, domain))
         sources = read_sources(case, domain)
         lines, areas = read_measurements(case, domain)

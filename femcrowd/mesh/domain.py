@@ -150,8 +150,11 @@ def _circumcentres(a, b, c, cross):
     return a + np.column_stack([ux, uy])
 
 
-def load_domain(file, exits=(), refine=0, case_file="case.toml") -> Domain:
-    """Read a gmsh mesh (2.2 or 4.1) into a Domain with these exit groups; errors name the case key."""
+def load_domain(file, exits=(), refine=0, case_file="case.toml", check=None) -> Domain:
+    """Read a gmsh mesh (2.2 or 4.1) into a Domain with these exit groups; errors name the case key.
+
+    check: called with the number of triangles the refined mesh will have, before refining (a run's
+    estimate, driver/limits.py, refuses a mesh that would not fit in memory)."""
     path = Path(file)
     if not path.is_file():
         raise InputError(case_file, "mesh.file", str(file), "mesh file not found")
@@ -169,5 +172,7 @@ def load_domain(file, exits=(), refine=0, case_file="case.toml") -> Domain:
             raise InputError(case_file, "boundary.exits", name,
                              f"group {name!r} in {path.name} contains interior edges, "
                              "not boundary edges")
+    if check is not None:
+        check(mesh.t.shape[1] * 4 ** int(refine))   # a uniform refinement splits each triangle in 4
     mesh = mesh.refined(int(refine)) if refine else mesh
     return Domain(mesh, exits, source=path)
