@@ -13,7 +13,8 @@ from .main import case_run_options, main
 @case_run_options
 @click.option("--resume", is_flag=True,
               help="Continue the run in the output directory from its checkpoint (written at every frame and on "
-                   "Ctrl-C), e.g. after an interruption or with a larger time.end.")
+                   "Ctrl-C; a run that ended between two frames goes on from the last one), e.g. after an "
+                   "interruption or with a larger time.end.")
 def run(case_dir, overrides, out, force, quiet, threads, resume):
     """Run the case in CASE_DIR (a directory with case.toml).
 
