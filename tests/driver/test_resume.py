@@ -105,15 +105,20 @@ def test_resume_after_a_run_that_ended_between_frames(tmp_path, uninterrupted):
     same_run(out, uninterrupted, rtol=1e-12)
 
 
-@pytest.mark.parametrize("first_end", [1.5, 1.55], ids=["at-a-frame", "between-frames"])
-def test_disc_runs_resume_bit_for_bit(tmp_path, first_end):
-    """A disc run to 1.5 s (a frame time) or 1.55 s (between frames), continued to 3 s: the history (but the
-    seconds), the frames and the discs of the uninterrupted run, bit for bit."""
+def disc_run_resumed(tmp_path, first_end, end, *settings):
+    """(uninterrupted, resumed) output directories of cases/narrow-door-micro with `settings`: one run to `end`,
+    one to `first_end` continued to `end` with --resume."""
     whole, part = tmp_path / "whole", tmp_path / "part"
-    case = CASES / "narrow-door-micro"
-    assert invoke("run", case, "--out", whole, "-q", "--set", "time.end=3").exit_code == 0
-    assert invoke("run", case, "--out", part, "-q", "--set", f"time.end={first_end}").exit_code == 0
-    assert invoke("run", case, "--out", part, "-q", "--set", "time.end=3", "--resume").exit_code == 0
+    case, options = CASES / "narrow-door-micro", [s for setting in settings for s in ("--set", setting)]
+    assert invoke("run", case, "--out", whole, "-q", *options, "--set", f"time.end={end}").exit_code == 0
+    assert invoke("run", case, "--out", part, "-q", *options, "--set", f"time.end={first_end}").exit_code == 0
+    assert invoke("run", case, "--out", part, "-q", *options, "--set", f"time.end={end}", "--resume").exit_code == 0
+    return whole, part
+
+
+def same_disc_run(whole, part):
+    """The history (but the seconds), the frames, the discs and their trajectories of two runs are the same, bit
+    for bit."""
     ha, hb = read_history(whole / "history.csv"), read_history(part / "history.csv")
     assert ha.keys() == hb.keys()
     assert [k for k in ha if k != "step_seconds" and not np.array_equal(ha[k], hb[k])] == []
@@ -122,6 +127,21 @@ def test_disc_runs_resume_bit_for_bit(tmp_path, first_end):
     a, b = (read_frame(d / f[-1][1]) for d, f in ((whole, fa), (part, fb)))
     assert np.array_equal(a.points, b.points)
     assert (whole / "trajectories.txt").read_text() == (part / "trajectories.txt").read_text()
+
+
+@pytest.mark.parametrize("first_end", [1.5, 1.55], ids=["at-a-frame", "between-frames"])
+def test_disc_runs_resume_bit_for_bit(tmp_path, first_end):
+    """A disc run to 1.5 s (a frame time) or 1.55 s (between frames), continued to 3 s: the uninterrupted run."""
+    same_disc_run(*disc_run_resumed(tmp_path, first_end, 3))
+
+
+def test_a_disc_run_resumes_while_a_door_is_held_open(tmp_path):
+    """The exit is to close at 6.15 s, a disc stands in its doorway until 6.25 s (tests/micro/test_closing_doors.py):
+    a checkpoint at 6.2 s keeps the door open, the resumed run closes it at 6.25 s, as the uninterrupted one."""
+    whole, part = disc_run_resumed(tmp_path, 6.2, 6.5, "boundary.open={exit=[[0, 6.15]]}", "output.every=0.1",
+                                   "velocity.type=field", "velocity.ux=1 - 2 * (t >= 6.15)")
+    same_disc_run(whole, part)
+    assert read_history(part / "history.csv")["overlap_r"].max() <= 1e-9
 
 
 def drop_array(path, name):
