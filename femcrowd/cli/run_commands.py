@@ -13,7 +13,8 @@ from .main import case_run_options, main
 @case_run_options
 @click.option("--resume", is_flag=True,
               help="Continue the run in the output directory from its checkpoint (written at every frame and on "
-                   "Ctrl-C), e.g. after an interruption or with a larger time.end.")
+                   "Ctrl-C; a run that ended between two frames goes on from the last one), e.g. after an "
+                   "interruption or with a larger time.end.")
 @click.option("--no-limits", is_flag=True,
               help="Run even what the estimate finds beyond the limits: more than 1e5 frames or 1e8 steps, more "
                    "than 80 % of this machine's memory, more than 50 GB of files (docs/tools.md, \"Limits\"; "

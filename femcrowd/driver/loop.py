@@ -31,16 +31,18 @@ class Controller:
         """Advance `model` from its time to the end, recording a row after each step (and one at t = 0).
 
         sink.frame() is called at t = 0, at each frame time and after the last step, sink.checkpoint(next_frame)
-        after each frame and when the run is interrupted. The loop ends at the end, or once the model is empty
-        (``model.empty()``). A Ctrl-C ends the step under way (a second one stops at once), checkpoints, then
-        raises KeyboardInterrupt; a step that does not advance t checkpoints and raises Stalled; whatever else a
-        step raises goes on to the caller. next_frame: the index of the next frame of a resumed run (its row at t
-        and its frame are already written). The seconds of the loop's own work (rows, progress, stops) go to the
-        timer's "recording"."""
+        after each frame and when the run is interrupted, but not after a last step cut short to land on an end
+        between two frame times (resumed, the run goes on from the checkpoint before). The loop ends at the end,
+        or once the model is empty (``model.empty()``). A Ctrl-C ends the step under way (a second one stops at
+        once), checkpoints, then raises KeyboardInterrupt; a step that does not advance t checkpoints and raises
+        Stalled; whatever else a step raises goes on to the caller. next_frame: the index of the next frame of a
+        resumed run (its row at t and its frame are already written). The seconds of the loop's own work (rows,
+        progress, stops) go to the timer's "recording"."""
         if next_frame is None:
             with timer("recording"):
                 recorder.add(model.row())
-            self._frame(sink, 1)
+            sink.frame()
+            sink.checkpoint(1)
         elif model.empty():  # a resumed run that had ended because the crowd left
             return
         frames = next_frame or 1  # frame k at k * every (a product: summed, 8 x 0.05 < 0.4 made a step of 6e-17)
@@ -60,14 +62,20 @@ class Controller:
                         while stops and model.t >= stops[0]:
                             self.on_stop(recorder)
                             stops.pop(0)
+                    # a last step cut short to land on an end off the frame times is not a step of the run continued
+                    # further: no checkpoint there, a --resume goes on from the last one (the same steps, bit for bit)
+                    kept = model.t < self.end or model.t >= frames * self.every
                     if model.t >= frame_time or emptied:
                         frames += model.t >= frames * self.every
-                        self._frame(sink, frames)
+                        sink.frame()
+                        if kept:
+                            sink.checkpoint(frames)
                         if log.isEnabledFor(logging.INFO):
                             log.info("t = %.6g s: %s", model.t, ", ".join(f"{k} {recorder.rows[k][-1]:.6g}"
                                                                          for k in recorder.history_columns[2:6]))
                     if interrupted:
-                        sink.checkpoint(frames)
+                        if kept:
+                            sink.checkpoint(frames)
                         raise KeyboardInterrupt
                     if model.t <= before:   # the step is below one ulp of t: t would never advance
                         sink.checkpoint(frames)
@@ -77,11 +85,6 @@ class Controller:
                         break
         finally:
             bar.close()
-
-    @staticmethod
-    def _frame(sink, index):
-        sink.frame()
-        sink.checkpoint(index)
 
 
 class Stalled(Exception):

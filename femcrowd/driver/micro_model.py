@@ -3,8 +3,9 @@
 The discs come from ``[micro].positions`` (CSV with x, y, r) or are sampled without overlap
 from ``[initial]`` (count from ``[micro].count``, else from the density at the hexagonal
 packing density); walls and obstacles are the wall facets of the mesh, exits its exit
-facets. Time step: ``time.dt``, else tau = cfl * r_min / max|U| (a disc moves at most cfl
-radii per step).
+facets (a closed exit is a wall, but it does not close on a disc in its doorway: docs/micro.md,
+"Doors that close"). Time step: ``time.dt``, else tau = cfl * r_min / max|U| (a disc moves at
+most cfl radii per step).
 """
 
 import logging
@@ -14,6 +15,7 @@ import numpy as np
 
 from ..macro.velocity import CongestionVelocity
 from ..micro import MicroSimulation
+from ..micro.contacts import WallSet
 from ..micro.density import disc_density
 from ..micro.strategies import DesiredVelocity, View
 from ..timer import Timer
@@ -86,7 +88,7 @@ class MicroModel:
                                       View(spec["view_distance"], spec["view_angle"]))
             self.sim = MicroSimulation(q, r, exits.segments("wall"), exits.segments("exit"), desired, tau,
                                        method=spec["method"], fluctuation=spec["fluctuation"], seed=spec["seed"])
-            self.exits_time = 0.0   # a time at which the walls and exits of the discs are self.exits
+            self.doorways, self.held = {}, set()   # exit name -> WallSet of its facets; the exits held open
             desired.sim = self.sim
             self.routing = [p.velocity for p in populations if isinstance(p.velocity, CongestionVelocity)]
             self.desired, self.initial_count = desired, len(q)
@@ -124,10 +126,11 @@ class MicroModel:
         StepInfo."""
         sim = self.sim
         until = landing(self.boundary, sim.t, until)
-        exits = self.boundary.at(sim.t)
-        if exits is not self.exits:   # a door closed or opened: walls and exits follow
-            sim.set_boundary(exits.segments("wall"), exits.segments("exit"))
-            self.exits, self.exits_time = exits, sim.t
+        exits = self.boundary.at(sim.t)   # the doors the discs head for
+        doors = self._doors(exits)
+        if doors is not self.exits:   # a door closed or opened: walls and exits follow
+            sim.set_boundary(doors.segments("wall"), doors.segments("exit"))
+            self.exits = doors
         sim.tau = min(self.tau, until - sim.t)
         if any(velocity.due(sim.t, exits) for velocity in self.routing):
             with self.timers("route"):   # the route choice, re-solved when it is due
@@ -152,6 +155,27 @@ class MicroModel:
         self.last = info
         self.evacuation.after_step(sim.t, info.count, 0)
         return info
+
+    def _doors(self, scheduled):
+        """The walls and exits of the discs: the `scheduled` doors, but an exit due to close stays open while a
+        disc stands in its doorway (overlaps its facets) and closes at the first step at which it is clear: a
+        door does not close on a person, and no disc overlaps a wall (docs/micro.md, "Doors that close")."""
+        closing = [name for name in self.exits.open if name not in scheduled.open]
+        held = [name for name in closing if self._occupied(name)]
+        for name in closing:
+            if name in held and name not in self.held:
+                log.warning("exit %r is to close at t = %.6g s while discs stand in its doorway: it stays open "
+                            "until they have left it", name, self.sim.t)
+            elif name not in held:
+                log.info("exit %r closed at t = %.6g s", name, self.sim.t)
+        self.held = set(held)
+        return self.boundary.opening([*scheduled.open, *held]) if held else scheduled
+
+    def _occupied(self, name) -> bool:
+        """Does a disc overlap the facets of the exit `name`?"""
+        if name not in self.doorways:
+            self.doorways[name] = WallSet(self.boundary.segments(name))
+        return bool(np.any(self.doorways[name].distance(self.sim.q) < self.sim.r))
 
     def row(self, info=None) -> dict:
         """The diagnostics of a step (info: its StepInfo; None: the initial discs)."""
@@ -200,7 +224,8 @@ class MicroModel:
         run continues bit for bit."""
         sim, last = self.sim, self.last
         pressure = last.pressure if last is not None else np.zeros(sim.count)
-        return {**sim.state(), "pressure": pressure, "exits_time": self.exits_time, "population": self.population,
+        return {**sim.state(), "pressure": pressure, "exits_open": np.array(self.exits.open, dtype=str),
+                "population": self.population,
                 **parts(evacuation=self.evacuation, sources=self.sources, measure=self.measurements,
                         **{f"route{k}": v for k, v in enumerate(self.routing)}),
                 **({} if self.trajectories is None else {"trajectory_frame": self.trajectories.frame})}
@@ -208,10 +233,11 @@ class MicroModel:
     def restore(self, data: dict) -> None:
         """Continue from a snapshot."""
         sim = self.sim
-        exits = self.boundary.at(float(data["exits_time"]))   # the walls of the checkpoint's contact network
+        exits = self.boundary.opening(data["exits_open"].tolist())   # the walls of the checkpoint's contact network
         if exits is not self.exits:
             sim.set_boundary(exits.segments("wall"), exits.segments("exit"))
-            self.exits, self.exits_time = exits, float(data["exits_time"])
+            self.exits = exits
+        self.held = set(exits.open) - set(self.boundary.at(float(data["t"])).open)
         sim.restore(data)
         self.desired.population = self.population = data["population"].copy()
         restore_parts(data, evacuation=self.evacuation, sources=self.sources, measure=self.measurements,

@@ -13,7 +13,7 @@ import numpy as np
 from ..case import Case
 from ..errors import InputError
 from ..mesh import Boundary, Domain, load_domain
-from ..micro.sampling import read_discs_csv, sample_discs
+from ..micro.sampling import overlaps, read_discs_csv, sample_discs
 from ..timer import Timer
 from .measurements import read_measurements
 from .plausibility import warn_implausible
@@ -97,17 +97,7 @@ def initial_discs(case: Case, domain: Domain, exits, rho=None) -> tuple[np.ndarr
     (default: [initial])."""
     spec = case["micro"]
     if spec["positions"] is not None:
-        try:
-            q, r = read_discs_csv(case.path(spec["positions"]))
-        except (OSError, ValueError) as err:
-            raise InputError(case.file, "micro.positions", spec["positions"],
-                             getattr(err, "strerror", None) or str(err)) from None
-        outside = domain.locate(q) < 0
-        if outside.any():
-            raise InputError(case.file, "micro.positions", spec["positions"],
-                             f"{outside.sum()} disc centres lie outside the domain "
-                             f"(first: {q[outside][0].tolist()})")
-        return q, r
+        return _discs_csv(case, domain, exits)
     rho = initial_density(case, domain) if rho is None else rho  # cell values, scaled to [0, 1]
     q, r = sample_discs(lambda xy: rho[np.maximum(domain.locate(xy), 0)], domain.points,
                         domain.triangles, spec["radius"], spec["count"],
@@ -115,6 +105,33 @@ def initial_discs(case: Case, domain: Domain, exits, rho=None) -> tuple[np.ndarr
     if len(q) == 0 and not case["sources"]:
         raise InputError(case.file, "initial.density", case["initial"]["density"],
                          "gives no discs (an empty crowd)")
+    return q, r
+
+
+def _discs_csv(case: Case, domain: Domain, exits) -> tuple[np.ndarray, np.ndarray]:
+    """(q, r) of the CSV of [micro].positions: InputError naming its line and values for a disc whose centre is
+    outside the domain, that crosses a wall (a door closed at t = 0 included) or overlaps another disc (by more
+    than 1e-9 r: touching is allowed), before anything is written."""
+    name = case["micro"]["positions"]
+    try:
+        q, r, line = read_discs_csv(case.path(name), lines=True)
+    except (OSError, ValueError) as err:
+        raise InputError(case.file, "micro.positions", name, getattr(err, "strerror", None) or str(err)) from None
+
+    def disc(k):
+        return f"line {line[k]} (x = {q[k, 0]:g}, y = {q[k, 1]:g}, r = {r[k]:g})"
+
+    outside = np.flatnonzero(domain.locate(q) < 0)
+    if len(outside):
+        raise InputError(case.file, "micro.positions", name, f"{len(outside)} disc centres lie outside the domain, "
+                         f"the first at {disc(outside[0])}")
+    i, j, overlap = overlaps(q, r, exits.segments("wall"))
+    if len(i):
+        clash = (f"the disc of {disc(i[0])} crosses a wall" if j[0] < 0 else
+                 f"the discs of {disc(i[0])} and {disc(j[0])} overlap")
+        more = f" ({len(i)} overlaps in all)" if len(i) > 1 else ""
+        raise InputError(case.file, "micro.positions", name, f"{clash} by {overlap[0]:.3g} m{more}: discs must not "
+                         "overlap one another nor cross a wall (touching is allowed)")
     return q, r
 
 

@@ -167,6 +167,11 @@ class Boundary:
             self._cache[key] = Doors(self.domain, self.doors, key)
         return self._cache[key]
 
+    def segments(self, name: str) -> np.ndarray:
+        """Segments (n, 2, 2) of the facets of the door `name` (the disc model's doorways)."""
+        door = next(door for door in self.doors if door.name == name)
+        return self.domain.points[self.domain.mesh.facets[:, door.facets].T]
+
     def at(self, t: float) -> Doors:
         """The doors open at time t."""
         if not self.changes:   # no schedule, or exits that never open: one set for the whole run

@@ -511,8 +511,10 @@ def _ipm(constraints: Constraints, U, d, lam0, atol, max_iter, newton, gap_tol):
         mu = float(lam @ s) / m
         primal = 0.5 * float(np.sum((v - U) ** 2))
         dual = float(lam @ BU_d) - 0.5 * float(np.sum(BTlam ** 2))
-        # (a tiny positive floor when U = 0: discs that stand still, a closed door, overlaps to undo)
-        gap = 0.0 if primal - dual <= floor else (primal - dual) / max(primal, floor, np.finfo(float).tiny)
+        # (a tiny positive floor when U = 0: discs that stand still, a closed door, overlaps to undo; a gap
+        # above 0 over it is inf, not converged)
+        with np.errstate(over="ignore"):
+            gap = 0.0 if primal - dual <= floor else (primal - dual) / max(primal, floor, np.finfo(float).tiny)
         feasible = float((Bv - d).max()) <= feasible_tol
         try:
             newton.factor(lam / s)

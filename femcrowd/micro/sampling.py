@@ -18,25 +18,29 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..mesh.triangles import doubled_areas
-from .contacts import WallSet, as_segments
+from .contacts import CandidateList, WallSet, as_segments
 
 HEX_PACKING = np.pi / (2 * np.sqrt(3))  # densest packing of equal discs, ~0.9069
 
 
-def read_discs_csv(path):
-    """Read discs from a CSV with a header containing columns x, y, r.
+def read_discs_csv(path, lines: bool = False):
+    """Read discs from a CSV with a header containing columns x, y, r (blank lines and # comments skipped).
 
-    Returns (q (N, 2), r (N,)). Raises ValueError naming the file on bad input.
+    Returns (q (N, 2), r (N,)), and with `lines` the line of the file of each disc (N,). Raises ValueError
+    naming the file on bad input.
     """
     path = Path(path)
     with open(path, newline="") as f:
-        header = f.readline()
+        header, *rows = f.read().splitlines()
     sep = "," if "," in header else None
     names = [h.strip().lower() for h in (header.split(sep) if sep else header.split())]
     missing = [c for c in ("x", "y", "r") if c not in names]
     if missing:
         raise ValueError(f"{path}: missing column(s) {missing} in header {names}")
-    data = np.loadtxt(path, delimiter=sep, skiprows=1, ndmin=2)
+    line = np.array([k for k, row in enumerate(rows, 2) if row.strip() and not row.lstrip().startswith("#")], int)
+    if not len(line):
+        raise ValueError(f"{path}: no discs (a header and no rows)")
+    data = np.loadtxt([rows[k - 2] for k in line], delimiter=sep, ndmin=2)
     if data.shape[1] != len(names):
         raise ValueError(f"{path}: {data.shape[1]} values per row but {len(names)} column names")
     q = data[:, [names.index("x"), names.index("y")]]
@@ -44,8 +48,23 @@ def read_discs_csv(path):
     if not (np.all(np.isfinite(q)) and np.all(np.isfinite(r))):
         raise ValueError(f"{path}: non-finite values")
     if np.any(r <= 0):
-        raise ValueError(f"{path}: radii must be > 0 (row {int(np.argmin(r > 0)) + 2})")
-    return np.ascontiguousarray(q), np.ascontiguousarray(r)
+        raise ValueError(f"{path}: radii must be > 0 (line {line[np.argmin(r > 0)]})")
+    q, r = np.ascontiguousarray(q), np.ascontiguousarray(r)
+    return (q, r, line) if lines else (q, r)
+
+
+def overlaps(q, r, walls, tol: float = 1e-9):
+    """The discs that overlap a wall segment or another disc by more than `tol` x their (smaller) radius:
+    (i, j, overlap in metres), j = -1 for a wall, the walls first, each kind in the order of i then j. The rows
+    of a candidate list without skin (every pair and disc-wall pair in contact: :class:`CandidateList`)."""
+    q, r, walls = np.asarray(q, float).reshape(-1, 2), np.asarray(r, float), WallSet(walls)
+    listed = CandidateList(q, r, walls, 0.0)
+    rows = listed.constraints(q, r, walls)
+    i, j = np.concatenate([rows.pi, rows.wi]), np.concatenate([rows.pj, np.full(rows.mw, -1)])
+    radius = np.minimum(r[i], np.where(j < 0, np.inf, r[j]))
+    bad = -rows.D > tol * radius
+    order = np.lexsort((j[bad], i[bad], j[bad] >= 0))
+    return i[bad][order], j[bad][order], -rows.D[bad][order]
 
 
 def _radius_moments(radius):

@@ -72,6 +72,37 @@ def test_csv_with_a_disc_outside_is_refused(tmp_path):
     assert result.exit_code == 2 and "Traceback" not in result.output
 
 
+@pytest.mark.parametrize("rows, words", [
+    ("1,1,0.2\n# a comment\n1.3,1,0.2\n", "discs of line 2 (x = 1, y = 1, r = 0.2) and line 4 (x = 1.3, y = 1, "
+                                           "r = 0.2) overlap by 0.1 m"),
+    ("1,1,0.2\n0.1,3,0.2\n", "disc of line 3 (x = 0.1, y = 3, r = 0.2) crosses a wall by 0.1 m"),
+    ("1,1,0.2\n2,2,100\n", "disc of line 3 (x = 2, y = 2, r = 100) crosses a wall by 98 m"),
+    ("1,1,0.2\n20,3,0.2\n", "1 disc centres lie outside the domain, the first at line 3 (x = 20, y = 3, r = 0.2)"),
+], ids=["overlap", "wall", "radius-100", "outside"])
+def test_csv_discs_that_overlap_or_cross_a_wall_are_refused(tmp_path, rows, words):
+    """One line naming the case, the CSV, the line and the disc; exit 2, before anything is written (a disc of
+    radius 100 was a traceback after the first frames; overlaps ran with 'max overlap 2.0 r')."""
+    (tmp_path / "discs.csv").write_text("x,y,r\n" + rows)
+    mesh = (CASES.parent / "meshes" / "room_narrow_door.msh").resolve()
+    (tmp_path / "case.toml").write_text(
+        f'[mesh]\nfile = "{mesh}"\n[boundary]\nexits = ["exit"]\n[model]\ntype = "micro"\n'
+        f'[micro]\npositions = "discs.csv"\n')
+    result = CliRunner().invoke(main, ["run", str(tmp_path), "--out", str(tmp_path / "out"), "-q"])
+    assert result.exit_code == 2 and result.stderr.count("\n") == 1, result.output
+    assert "micro.positions = 'discs.csv'" in result.stderr and words in result.stderr, result.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_discs_touching_each_other_and_a_wall_are_accepted(tmp_path):
+    """Touching (gap 0 up to round-off) is not overlapping: discs at x = 0.2 (on the wall x = 0) and 0.6."""
+    (tmp_path / "discs.csv").write_text("x,y,r\n0.2,1,0.2\n0.6,1,0.2\n")
+    mesh = (CASES.parent / "meshes" / "room_narrow_door.msh").resolve()
+    (tmp_path / "case.toml").write_text(
+        f'[mesh]\nfile = "{mesh}"\n[boundary]\nexits = ["exit"]\n[model]\ntype = "micro"\n'
+        f'[micro]\npositions = "discs.csv"\n[time]\nend = 0.2\n')
+    assert run_micro(load_case(tmp_path), tmp_path / "out")["initial_count"] == 2
+
+
 def test_compare_narrow_door_macro_evacuates_faster(tmp_path):
     """The findings of Maury et al. (2011) on a narrow door: the discs jam, the macro crowd leaves faster."""
     case = load_case(CASES / "narrow-door", ["time.end=12", "output.every=1"])

@@ -196,6 +196,8 @@ def test_read_discs_csv(tmp_path):
     f.write_text("x,y,r\n1.0,2.0,0.2\n3.0,4.0,0.25\n")
     q, r = read_discs_csv(f)
     assert q.tolist() == [[1.0, 2.0], [3.0, 4.0]] and r.tolist() == [0.2, 0.25]
+    f.write_text("x,y,r\n1.0,2.0,0.2\n\n# a comment\n3.0,4.0,0.25\n")
+    assert read_discs_csv(f, lines=True)[2].tolist() == [2, 5]   # the lines of the file, for the errors
     (tmp_path / "bad.csv").write_text("x,y\n1,2\n")
     with pytest.raises(ValueError, match="bad.csv"):
         read_discs_csv(tmp_path / "bad.csv")
