@@ -103,7 +103,8 @@ class MicroModel:
                 self.measurements.start(self.sim)
             self.trajectory_rate = case["output"]["trajectory_rate"]
         self.evacuation = Evacuation(case["time"]["stop_when_empty"], bool(domain.exit_group), self.sources,
-                                     max((source.end for source in scene.sources), default=-np.inf))
+                                     max((source.end for source in scene.sources), default=-np.inf),
+                                     people=self.initial_count > 0)
         self.last = None   # the last step's StepInfo (positions, velocities, pressures of its discs)
         self.timers = Timer()
 
