@@ -86,7 +86,8 @@ def crowd(scene):
 
 
 def scene_figure(case):
-    """The matplotlib Figure of a case's scene at t = 0 (the scene built as a run builds it, nothing run)."""
+    """(the matplotlib Figure of a case's scene at t = 0, its number of people): the scene built as a run builds
+    it, nothing run."""
     scene = build_scene(case)
     domain, boundary = scene.domain, scene.boundary
     counts, draw = crowd(scene)
