@@ -22,29 +22,60 @@ def _times(values):
     return out
 
 
+def _is_case(path) -> bool:
+    """A case to preview: a .toml file, or a directory with case.toml and no frames of a run."""
+    path = Path(path)
+    if path.is_file():
+        return path.suffix == ".toml"
+    return (path / "case.toml").is_file() and not any((path / f"{s}.pvd").is_file() for s in ("solution", "discs"))
+
+
 @main.command()
-@click.argument("outdir", type=click.Path())
+@click.argument("outdir", metavar="OUTDIR|CASE_DIR", type=click.Path())
 @click.option("-t", "--times", "times", multiple=True, metavar="T[,T...]",
               help="Times (s) of the pictures, comma-separated or repeated; the nearest frames are used. "
                    "Default: 4 evenly spaced times until 95% of the crowd has left.")
 @click.option("--no-animation", is_flag=True, help="Skip the animation (the slowest part).")
 @click.option("--mp4", is_flag=True, help="Animation as MP4 instead of GIF (needs imageio-ffmpeg).")
-@click.option("-o", "--out", type=click.Path(), help="Directory for the pictures (default: OUTDIR).")
+@click.option("-o", "--out", type=click.Path(),
+              help="Directory for the pictures (default: OUTDIR/plots; for CASE_DIR the current directory).")
+@set_option
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar, no list of files.")
-def plot(outdir, times, no_animation, mp4, out, quiet):
-    """Pictures, animation and curves of a run's output directory OUTDIR.
+def plot(outdir, times, no_animation, mp4, out, overrides, quiet):
+    """Pictures, animation and curves of a run's output directory OUTDIR, or a preview of the scene of
+    CASE_DIR before any run.
 
-    Writes density_t*.png and pressure_t*.png (micro runs: discs_t*.png) at
+    Of a run: density_t*.png and pressure_t*.png (micro runs: discs_t*.png) at
     the chosen times, density.gif (micro: discs.gif) and curves.png (people
     inside and evacuated, flow rate per exit, max pressure, saturated area).
     Rendering is offscreen: no display needed.
+
+    Of a case (a directory with case.toml and no frames, or a .toml file):
+    CASE-preview.png, the scene at t = 0 as the run would build it (walls,
+    exits with their schedules, sources, measurement lines and areas, the
+    initial crowd and its number of people); --set as for femcrowd run.
 
     \b
     Examples:
       femcrowd plot cases/room/output
       femcrowd plot /tmp/room --times 0,5,10 --no-animation
       femcrowd plot /tmp/room -o /tmp/room-pictures
+      femcrowd plot cases/entrance -o /tmp/previews --set model.type=micro
     """
+    from ..errors import InputError
+
+    if _is_case(outdir):
+        from ..plot.preview import preview
+
+        if times:
+            raise InputError(outdir, "--times", ",".join(times), "a case has no frames: --times is for the output "
+                             "directory of a run (the preview shows t = 0)")
+        path, total = preview(load_case(outdir, overrides), out)
+        click.echo(f"wrote {path}")
+        return
+    if overrides:
+        raise InputError(outdir, "--set", overrides[0], "is for a case directory (a preview); the pictures of a "
+                         "run show the case it ran")
     from ..plot import plot_run
 
     written = plot_run(outdir, _times(times) or None, not no_animation, out, mp4, quiet)

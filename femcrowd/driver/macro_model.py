@@ -116,7 +116,8 @@ class MacroModel:
             self.measurements = MacroMeasurements(scene.lines, scene.areas, domain, self.rho_max)
             self.measurements.attach(self.solver, self.state)
         self.evacuation = Evacuation(case["time"]["stop_when_empty"], bool(domain.exit_group), self.sources,
-                                     max((source.end for source in scene.sources), default=-np.inf))
+                                     max((source.end for source in scene.sources), default=-np.inf),
+                                     people=self.initial_mass > 0)
         self.regions = Regions(scene, self.state.populations)
         self.regions.warn_trapped(self.state.density * domain.area * self.rho_max)
 

@@ -106,7 +106,8 @@ class MicroModel:
                 self.measurements.start(self.sim)
             self.trajectory_rate = case["output"]["trajectory_rate"]
         self.evacuation = Evacuation(case["time"]["stop_when_empty"], bool(domain.exit_group), self.sources,
-                                     max((source.end for source in scene.sources), default=-np.inf))
+                                     max((source.end for source in scene.sources), default=-np.inf),
+                                     people=self.initial_count > 0)
         self.regions = Regions(scene, self.names)
         self.regions.warn_trapped(np.bincount(domain.locate(q) + 1, minlength=domain.ncells + 1)[1:])
         self.last = None   # the last step's StepInfo (positions, velocities, pressures of its discs)

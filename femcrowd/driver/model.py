@@ -68,12 +68,16 @@ def landing(boundary, t: float, until: float) -> float:
 
 
 class Evacuation:
-    """When the crowd has left: less than a threshold inside (a mass, or a number of discs) while nobody
-    arrives any more (``[[sources]]`` over, no one queued outside); the first time that holds after a step is
-    the evacuation time (of scenes with exits). ``stop``: whether the run stops then (time.stop_when_empty)."""
+    """When the crowd has left: at most a threshold inside (a mass, or a number of discs) while nobody arrives
+    any more (``[[sources]]`` over, no one queued outside). The evacuation time (of scenes with exits) is the
+    time the last person left: the first step of the last stretch of steps with at most the threshold inside,
+    once nobody arrives, in a run that had people (at t = 0, `people`, or later: a run that starts empty and
+    fills from its sources). ``stop``: whether the run stops then (time.stop_when_empty)."""
 
-    def __init__(self, stop: bool, exits: bool, sources=None, last_arrival: float = -np.inf):
+    def __init__(self, stop: bool, exits: bool, sources=None, last_arrival: float = -np.inf, people: bool = True):
         self.stop, self.exits, self.sources, self.last_arrival = stop and exits, exits, sources, last_arrival
+        self.people = people   # has anybody been inside so far?
+        self.since = None      # the time of the step since which at most the threshold is inside
         self.time = None
 
     def arriving(self, t: float) -> bool:
@@ -81,16 +85,24 @@ class Evacuation:
         return self.sources is not None and (t < self.last_arrival or self.sources.queued > 0)
 
     def after_step(self, t: float, inside: float, threshold: float) -> None:
-        """Note the evacuation time at the first step that leaves at most `threshold` inside."""
-        if self.time is None and self.exits and inside <= threshold and not self.arriving(t):
-            self.time = t
+        """Follow the stretches with at most `threshold` inside; the evacuation time is the start of the one in
+        which arrivals are over."""
+        if inside > threshold:
+            self.people, self.since = True, None
+        elif self.since is None:
+            self.since = t
+        if self.time is None and self.exits and self.people and self.since is not None and not self.arriving(t):
+            self.time = self.since
 
     def empty(self, t: float, inside: float, threshold: float) -> bool:
         return self.stop and inside <= threshold and not self.arriving(t)
 
     def snapshot(self) -> dict:
-        return {"time": np.nan if self.time is None else self.time}
+        return {name: np.nan if value is None else float(value)
+                for name, value in (("time", self.time), ("since", self.since), ("people", self.people))}
 
     def restore(self, data: dict) -> None:
-        time = float(data.get("time", np.nan))   # (a checkpoint of an earlier femcrowd has none)
-        self.time = None if np.isnan(time) else time
+        # (a checkpoint of an earlier femcrowd has no time, since nor people)
+        self.time, self.since = (None if np.isnan(v) else v for v in (float(data.get(k, np.nan))
+                                                                       for k in ("time", "since")))
+        self.people = bool(data.get("people", True))

@@ -62,6 +62,7 @@ class RunDirectory:
             raise InputError(d, None, None, "no frames (solution.pvd or discs.pvd): not the output "
                              "directory of a run (femcrowd run CASE writes one)")
         case = self.summary.get("case") or _case_copy(d / "case.toml")  # no summary yet: run in progress
+        self.case = case
         self.title = case.get("title") or d.name
         self.rho_max = case.get("model", {}).get("rho_max", 1.0)
 

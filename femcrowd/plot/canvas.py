@@ -51,21 +51,11 @@ class Canvas:
                              i_size=dx, j_size=dy, i_resolution=1, j_resolution=1)
             p.add_mesh(plate, color=OBSTACLE, lighting=False)
             p.add_mesh(floor.translate((0, 0, -5e-4 * size)), color=FLOOR, lighting=False)
-        for segments, colour, z, line in [(walls, WALL, 1e-3, width / 300), (exits, EXIT, 2e-3, width / 120)]:
-            if len(segments):  # tubes: round joints, no gaps between segments
-                p.add_mesh(_lines(segments, z * size), color=colour, line_width=max(2, line),
-                           render_lines_as_tubes=True, lighting=False)
-        for name, middle, normal in labels if len(labels) > 1 else ():  # name the exits when there are several
-            inward = middle - normal * 14 / scale
-            across = abs(normal[0]) > abs(normal[1])
-            p.add_point_labels([[*inward, 3e-3 * size]], [name], font_size=max(8, width // 60), text_color=EXIT,
-                               bold=True, shape=None, background_color="white", background_opacity=0.8,
-                               show_points=False, always_visible=True,
-                               justification_horizontal=("right" if normal[0] > 0 else "left") if across else "center",
-                               justification_vertical="center" if across else ("top" if normal[1] > 0 else "bottom"))
+        self.scale, self.size, self.boundary, self.drawn = scale, size, [], None
+        self.doors(walls, exits, labels)
         self.text = p.add_text("", position=(self.MARGIN, height - self.TOP + 6), font_size=max(10, width // 75),
                                color=TEXT)
-        self.layer = self.outline = None
+        self.layer = self.outline = self.legend = None
         camera = p.camera
         camera.parallel_projection = True
         world_height = height / scale
@@ -75,6 +65,32 @@ class Canvas:
         camera.up = (0, 1, 0)
         camera.parallel_scale = world_height / 2
         p.renderer.ResetCameraClippingRange()
+
+    def doors(self, walls, exits, labels):
+        """Draw walls (grey) and exits (green), replacing those drawn before unless the labels are the same: closed
+        doors are walls (their facets are among ``walls``); labels [(name, midpoint, outward normal)] name the
+        exits when there are several."""
+        drawn = [label[0] for label in labels]   # the names say which exits are closed
+        if self.boundary and drawn == self.drawn:
+            return
+        self.drawn = drawn
+        p, width, scale, size = self.plotter, self.width, self.scale, self.size
+        for actor in self.boundary:
+            p.remove_actor(actor)
+        self.boundary = []
+        for segments, colour, z, line in [(walls, WALL, 1e-3, width / 300), (exits, EXIT, 2e-3, width / 120)]:
+            if len(segments):  # tubes: round joints, no gaps between segments
+                self.boundary.append(p.add_mesh(_lines(segments, z * size), color=colour, line_width=max(2, line),
+                                                render_lines_as_tubes=True, lighting=False))
+        for name, middle, normal in labels if len(labels) > 1 else ():  # name the exits when there are several
+            inward = middle - normal * 14 / scale
+            across = abs(normal[0]) > abs(normal[1])
+            self.boundary.append(p.add_point_labels(
+                [[*inward, 3e-3 * size]], [name], font_size=max(8, width // 60), text_color=EXIT,
+                bold=True, shape=None, background_color="white", background_opacity=0.8,
+                show_points=False, always_visible=True,
+                justification_horizontal=("right" if normal[0] > 0 else "left") if across else "center",
+                justification_vertical="center" if across else ("top" if normal[1] > 0 else "bottom")))
 
     def show(self, mesh, name, clim, cmap, bar_title):
         """Colour ``mesh`` by its array ``name`` (first call adds the layer, later calls replace its data)."""
@@ -145,11 +161,13 @@ class Canvas:
         self.layer = self.outline = None
         colours = np.array([matplotlib.colormaps[POPULATION_CMAPS[k % len(POPULATION_CMAPS)]](0.75)[:3]
                             for k in range(len(names))])
-        if not getattr(self, "_legend", False):
-            self.plotter.add_legend([[name, tuple(c)] for name, c in zip(names, colours)], bcolor="white",
-                                    loc="lower center", size=(0.12 + 0.08 * len(names), 0.04 + 0.035 * len(names)),
-                                    face="circle")
-            self._legend = True
+        if self.legend is None:
+            # in the bottom band, below the floor plan (no colour bar here): it never covers a door
+            self.legend = self.plotter.add_legend([[name, tuple(c)] for name, c in zip(names, colours)],
+                                                  bcolor="white", loc=None, face="circle")
+            tall, wide = min(self.BOTTOM - 10, 14 + 20 * len(names)), 0.12 + 0.08 * len(names)
+            self.legend.SetPosition(0.5 - wide / 2, 8 / self.height)
+            self.legend.SetPosition2(wide, tall / self.height)
         if not frame.n_points:
             return
         fill, outline = disc_glyphs(frame)
@@ -218,7 +236,3 @@ def disc_glyphs(frame):
     fill = centres.glyph(geom=unit.triangulate(), scale="radius", orient=False, factor=1.0)
     outline = centres.glyph(geom=unit.extract_feature_edges(), scale="radius", orient=False, factor=1.0)
     return fill, outline
-
-
-def density_title(rho_max):
-    return "density (people/m^2)" if rho_max != 1 else "density (rho / rho_max)"

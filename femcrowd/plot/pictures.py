@@ -30,8 +30,9 @@ from ..driver.ownership import reading
 from ..driver.reading import RunDirectory
 from ..errors import InputError
 from ..mesh import Boundary, file_checksum, load_domain
-from .canvas import CMAPS, PRESSURE_TITLE, Canvas, bounds, density_title, nice_top, pv
+from .canvas import CMAPS, PRESSURE_TITLE, Canvas, bounds, nice_top, pv
 from .measurements import measurement_plots
+from .units import counts_people, crowd_unit, density_title
 
 log = logging.getLogger("femcrowd.plot")
 
@@ -50,9 +51,9 @@ def read(run, stem, k):
 
 
 def floor_plan(run):
-    """walls, exits (segment arrays (n, 2, 2)), exit labels [(name, midpoint, outward normal)] and the
-    floor (triangles, PolyData) from the run's mesh, or None when it cannot be found."""
-    mesh, case = run.summary.get("mesh", {}), run.summary.get("case", {})
+    """The run's doors over time (a Boundary with the case's [boundary.open]) and its floor (triangles,
+    PolyData) from the run's mesh, or None when it cannot be found."""
+    mesh, case = run.summary.get("mesh", {}), run.case
     file = Path(mesh.get("file", ""))
     if not mesh.get("file") or not file.is_file():
         log.warning("mesh of the run %s: all boundary edges drawn as walls",
@@ -60,39 +61,60 @@ def floor_plan(run):
         return None
     if mesh.get("sha256") and file_checksum(file) != mesh["sha256"]:
         log.warning("mesh %s changed since the run: walls and exits drawn from its current version", file)
-    domain = load_domain(file, case.get("boundary", {}).get("exits", []),
-                         case.get("mesh", {}).get("refine", 0))
-    labels = [(name, domain.midpoint[f].mean(axis=0), domain.normal[f].mean(axis=0))
-              for name, f in domain.exit_group.items()]
+    boundary = case.get("boundary", {})
+    domain = load_domain(file, boundary.get("exits", []), case.get("mesh", {}).get("refine", 0))
+    schedule = {name: spans for name, spans in boundary.get("open", {}).items() if name in domain.exit_group}
     floor = pv.PolyData.from_regular_faces(np.column_stack([domain.points, np.zeros(len(domain.points))]),
                                            domain.triangles)
-    exits = Boundary(domain).at(0.0)
-    return exits.segments("wall"), exits.segments("exit"), labels, floor
+    return Boundary(domain, schedule), floor
 
 
 class FloorPlan:
-    """The floor plan of a run (from its mesh, else from its frames) and its bounds."""
+    """The floor plan of a run (from its mesh, else from its frames), its doors over time and its bounds."""
 
     def __init__(self, run):
         plan = floor_plan(run)
         stem = "solution" if "solution" in run.frames else "discs"
         first = read(run, stem, 0)
+        self.boundary = None
         if plan is None:
             if stem == "solution":
                 edges = first.extract_feature_edges(boundary_edges=True, feature_edges=False,
                                                     manifold_edges=False, non_manifold_edges=False)
-                walls = np.asarray(edges.points)[edges.lines.reshape(-1, 3)[:, 1:], :2]
+                self.walls = np.asarray(edges.points)[edges.lines.reshape(-1, 3)[:, 1:], :2]
             else:
-                walls = np.zeros((0, 2, 2))
-            plan = walls, np.zeros((0, 2, 2)), [], first if stem == "solution" else None
-        self.walls, self.exits, self.labels, self.floor = plan
-        points = np.concatenate([self.walls.reshape(-1, 2), self.exits.reshape(-1, 2)])
+                self.walls = np.zeros((0, 2, 2))
+            self.floor = first if stem == "solution" else None
+        else:
+            self.boundary, self.floor = plan
+            self.walls = self.boundary.at(0.0).segments("wall")
+        walls, exits, _, _ = self.doors(0.0)
+        points = np.concatenate([walls.reshape(-1, 2), exits.reshape(-1, 2)])
         if not len(points):
             points = np.asarray(first.points)[:, :2]
         self.bounds = bounds(points)
 
+    def doors(self, t):
+        """(walls, exits, labels, closed) at time t: the segments of the walls (closed exits among them) and of
+        the open exits, a label [(name, midpoint, outward normal)] per exit ("name (closed)" when closed), the
+        names of the closed exits."""
+        if self.boundary is None:
+            return self.walls, np.zeros((0, 2, 2)), [], []
+        doors, d = self.boundary.at(t), self.boundary.domain
+        closed = [name for name in doors.names if name not in doors.open]
+        labels = [(name if name in doors.open else f"{name} (closed)", d.midpoint[f].mean(axis=0),
+                   d.normal[f].mean(axis=0)) for name, f in d.exit_group.items()]
+        return doors.segments("wall"), doors.segments("exit"), labels, closed
+
     def canvas(self, width):
-        return Canvas(self.bounds, self.walls, self.exits, self.labels, self.floor, width)
+        walls, exits, labels, _ = self.doors(0.0)
+        return Canvas(self.bounds, walls, exits, labels, self.floor, width)
+
+    def show(self, canvas, t):
+        """Draw the doors of time t on the canvas; ' (closed: names)' for the title."""
+        walls, exits, labels, closed = self.doors(t)
+        canvas.doors(walls, exits, labels)
+        return f" (closed: {', '.join(closed)})" if closed else ""
 
 
 def frame_index(series, times, directory):
@@ -133,7 +155,7 @@ def pictures(run, plan, times, out):
             fields = [f for f in ("density", "pressure") if f in frames[0].cell_data]
             for field in fields:
                 if field == "density":
-                    clim, bar = (0.0, run.rho_max), density_title(run.rho_max)
+                    clim, bar = (0.0, run.rho_max), density_title(counts_people(run.case))
                 else:
                     top = max(float(np.max(f.cell_data[field])) for f in frames)
                     clim, bar = (0.0, nice_top(top)), PRESSURE_TITLE
@@ -141,7 +163,7 @@ def pictures(run, plan, times, out):
                 for k, frame in zip(chosen, frames):
                     t = series[k][0]
                     canvas.show(frame, field, clim, CMAPS[field], bar)
-                    canvas.title(f"{run.title}\n{field} at t = {t:.4g} s")
+                    canvas.title(f"{run.title}\n{field} at t = {t:.4g} s{plan.show(canvas, t)}")
                     written.append(out / f"{field}_{_stamp(t, series)}.png")
                     canvas.save(written[-1])
                 canvas.close()
@@ -159,8 +181,8 @@ def _population_pictures(run, plan, series, chosen, frames, out):
     written, canvas = [], plan.canvas(PICTURE_WIDTH)
     for k, frame in zip(chosen, frames):
         t = series[k][0]
-        canvas.show_populations(frame, names, run.rho_max, density_title(run.rho_max))
-        canvas.title(f"{run.title}\n{', '.join(names)} at t = {t:.4g} s")
+        canvas.show_populations(frame, names, run.rho_max, density_title(counts_people(run.case)))
+        canvas.title(f"{run.title}\n{', '.join(names)} at t = {t:.4g} s{plan.show(canvas, t)}")
         written.append(out / f"populations_{_stamp(t, series)}.png")
         canvas.save(written[-1])
     canvas.close()
@@ -185,7 +207,7 @@ def _disc_pictures(run, plan, series, chosen, frames, out):
                 canvas.show_discs(frame, clim)
             else:
                 canvas.show_disc_populations(frame, names)
-            canvas.title(f"{run.title}\n{frame.n_points} discs at t = {t:.4g} s")
+            canvas.title(f"{run.title}\n{frame.n_points} discs at t = {t:.4g} s{plan.show(canvas, t)}")
             written.append(out / f"{stem}_{_stamp(t, series)}.png")
             canvas.save(written[-1])
         canvas.close()
@@ -215,13 +237,13 @@ def animation(run, plan, out, mp4=False, quiet=True):
     images = []
     clim = _disc_range([read(run, stem, k) for k in chosen]) if stem == "discs" else (0.0, run.rho_max)
     for k in tqdm(chosen, disable=quiet, delay=2.0, desc=f"animation {path.name}", unit="frame"):
-        frame = read(run, stem, k)
+        frame, closed = read(run, stem, k), plan.show(canvas, t[k])
         if stem == "solution":
-            canvas.show(frame, "density", clim, CMAPS["density"], density_title(run.rho_max))
-            canvas.title(f"{run.title}\ndensity at t = {t[k]:.1f} s")
+            canvas.show(frame, "density", clim, CMAPS["density"], density_title(counts_people(run.case)))
+            canvas.title(f"{run.title}\ndensity at t = {t[k]:.1f} s{closed}")
         else:
             canvas.show_discs(frame, clim)
-            canvas.title(f"{run.title}\n{frame.n_points} discs at t = {t[k]:.1f} s")
+            canvas.title(f"{run.title}\n{frame.n_points} discs at t = {t[k]:.1f} s{closed}")
         images.append(canvas.image())
     canvas.close()
     if mp4:
@@ -239,8 +261,25 @@ def _rate(time, cumulative, width):
     return 0.5 * (edges[1:] + edges[:-1]), np.diff(values) / np.diff(edges)
 
 
+def _empty(h, column):
+    """Is a history column missing, or zero for the whole run (max pressure and saturated area with a speed law
+    that never saturates, contacts of discs that never touch)?"""
+    return column not in h or not np.any(h[column])
+
+
 def curves(run, out):
-    """curves.png: people inside/evacuated, flow rate per exit, max pressure, saturated area vs time."""
+    """curves.png (curves_figure), or None without history rows."""
+    fig = curves_figure(run)
+    if fig is None:
+        return None
+    path = out / "curves.png"
+    fig.savefig(path, dpi=110)
+    return path
+
+
+def curves_figure(run):
+    """People inside/evacuated, flow rate per exit, and the max pressure and saturated area (micro: contacts and
+    max overlap) vs time, the panels of these that are zero for the whole run left out."""
     from matplotlib.figure import Figure
 
     h = run.history
@@ -249,19 +288,25 @@ def curves(run, out):
         return None
     t = h["time"]
     micro = "count" in h
-    unit = "people" if micro or run.rho_max != 1 else "rho_max m^2"
+    unit = "people" if micro else crowd_unit(counts_people(run.case))
     t_gone = run.time_remaining(CURVES_REMAINING)
     t_show = min(t[-1], 1.15 * t_gone) if t_gone else t[-1]
-    fig = Figure(figsize=(11, 7.5), layout="constrained")
+    extra = [panel for panel in ([("contacts", "contacts", "active contacts"),
+                                  ("max_overlap", "max overlap", "overlap (m)")] if micro else
+                                 [("max_pressure", "max pressure", "max p (m^2/s)"),
+                                  ("saturated_area", "saturated area (rho = rho_max)", "area (m^2)")])
+             if not _empty(h, panel[0])]
+    rows = 1 + (len(extra) > 0)
+    fig = Figure(figsize=(11, 3.75 * rows + (rows == 1) * 0.5), layout="constrained")
     fig.suptitle(run.title if t_show == t[-1] else
                  f"{run.title}\n(shown until {100 * (1 - CURVES_REMAINING):g}% have left; "
                  f"the run goes on to t = {t[-1]:.4g} s)")
-    ax = fig.subplots(2, 2, sharex=True)
+    ax = fig.subplots(rows, 2, sharex=True, squeeze=False)
 
     a = ax[0, 0]
     a.plot(t, h["count" if micro else "mass"], label="inside", color="#d7301f", lw=2)
     a.plot(t, h["evacuated"], label="evacuated", color="#2b8cbe", lw=2)
-    a.set(ylabel="people" if unit == "people" else f"people ({unit})", title="people inside and evacuated")
+    a.set(ylabel=unit if unit == "people" else f"crowd ({unit})", title="people inside and evacuated")
     a.legend()
 
     a = ax[0, 1]
@@ -275,21 +320,21 @@ def curves(run, out):
     a.set(ylabel=f"flow rate ({unit}/s)", title="exit flow rate")
     a.legend()
 
-    for a, (column, title, ylabel) in zip(ax[1], [
-            ("contacts", "contacts", "active contacts") if micro else
-            ("max_pressure", "max pressure", "max p (m^2/s)"),
-            ("max_overlap", "max overlap", "overlap (m)") if micro else
-            ("saturated_area", "saturated area (rho = rho_max)", "area (m^2)")]):
-        if column in h:
-            a.plot(t, h[column], color="#54278f", lw=1.5)
-        a.set(title=title, ylabel=ylabel, xlabel="time (s)")
-    for a in ax.flat:
+    for a, (column, title, ylabel) in zip(ax[1] if extra else (), extra):
+        a.plot(t, h[column], color="#54278f", lw=1.5)
+        a.set(title=title, ylabel=ylabel)
+    bottom = [ax[-1, 0], ax[-1, 1]]
+    if len(extra) == 1:   # the panel above the empty place shows the time axis
+        ax[1, 1].remove()
+        bottom[1] = ax[0, 1]
+        ax[0, 1].xaxis.set_tick_params(labelbottom=True)
+    for a in bottom:
+        a.set_xlabel("time (s)")
+    for a in fig.axes:
         a.grid(alpha=0.3)
         a.set_xlim(0, t_show)
         a.set_ylim(bottom=0)
-    path = out / "curves.png"
-    fig.savefig(path, dpi=110)
-    return path
+    return fig
 
 
 def plot_run(directory, times=None, animate=True, out=None, mp4=False, quiet=True) -> list:

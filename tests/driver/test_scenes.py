@@ -8,6 +8,7 @@ from femcrowd import Simulation, load_case
 from femcrowd.driver.measurements import line_facets
 from femcrowd.macro.exact import SaturatedEvacuation
 from femcrowd.mesh.floorplan import build_mesh
+from femcrowd.micro.sampling import HEX_PACKING
 
 from ..support import CASES, unit_square
 
@@ -154,6 +155,45 @@ def test_micro_source_places_discs_without_overlap_at_the_rate(channel):
     assert h["inflow"][-1] >= 0.9 * expected
     assert np.all(h["count"] + h["evacuated"] == h["inflow"])
     assert h["max_overlap"].max() < 1e-3 * 0.1
+
+
+def one_late_disc(channel, rate):
+    """The channel in micro: a source of `rate` discs per second for 12 s (r = 0.1), run to the end."""
+    flow = rate * np.pi * 0.1 ** 2 / HEX_PACKING   # discs per second through the 1 m entrance (driver/sources.py)
+    case = load_case(channel, {"model.type": "micro", "micro.radius": 0.1, "time.end": 20.0, "output.every": 20.0,
+                               "sources": [{"boundary": "entrance", "flow": flow, "start": 0.0, "end": 12.0}]})
+    return Simulation(case).run()
+
+
+def test_a_disc_run_that_starts_empty_reports_when_its_last_person_left(channel):
+    """Issue 25: a run that starts empty and fills from a source. 0.15 discs/s for 12 s: one disc arrives at
+    t = 6.7 s and walks the 4 m out at 1 m/s before the source ends (the second would come at 13.3 s): the
+    evacuation time is the step of its exit crossing, not the first step nor the end of the arrivals."""
+    result = one_late_disc(channel, 0.15)
+    h = result.history
+    assert h["inflow"][-1] == 1 and h["evacuated"][-1] == 1
+    left = h["time"][np.flatnonzero(np.diff(h["evacuated"]) > 0)[-1] + 1]   # the step it crossed the exit
+    assert 10.0 < left < 12.0
+    assert result.summary["evacuation_time"] == left
+    assert result.summary["final_time"] == pytest.approx(12.0)   # the run stops once the arrivals are over
+
+
+def test_a_run_nobody_entered_has_no_evacuation_time(channel):
+    """0.05 discs/s for 12 s: 0.6 of a disc, nobody arrives; nobody left either."""
+    result = one_late_disc(channel, 0.05)
+    assert result.history["inflow"][-1] == 0
+    assert result.summary["evacuation_time"] is None
+
+
+def test_a_macro_run_that_starts_empty_reports_when_its_crowd_left(channel):
+    """The macro channel filled by its source over [0.5, 1.5] s at speed 1: the mass is below the empty threshold
+    from the step the last of it crosses the exit at x = 4 on (5.5 s, later by the upwind scheme's spreading),
+    not at the first step."""
+    result = Simulation(load_case(channel, {"time.end": 8.0})).run()
+    h, t = result.history, result.summary["evacuation_time"]
+    empty = result.summary["final_time"]
+    inside = h["mass"] > 1e-4 * h["inflow"]   # time.empty_fraction, the default
+    assert 5.5 < t < 8.0 and t == h["time"][np.flatnonzero(inside)[-1] + 1] and empty == t
 
 
 # --- measurements ---------------------------------------------------------------------------------

@@ -13,9 +13,11 @@ from click.testing import CliRunner
 from femcrowd import load_case, run
 from femcrowd.cli import main
 from femcrowd.driver.output import FrameSeries, HistoryFile, disc_frame, write_json
+from femcrowd.driver.reading import RunDirectory
 from femcrowd.mesh import file_checksum
 from femcrowd.plot.canvas import CMAPS, EXIT, FLOOR, WALL, Canvas, nice_top, tick_count
 from femcrowd.plot.measurements import FRUIN_COLOURS
+from femcrowd.plot.pictures import FloorPlan, curves_figure
 
 from ..support import ROOT
 
@@ -204,3 +206,46 @@ def test_plot_of_a_run_with_measurements(tmp_path):
     plain = run(load_case(ROOT / "cases" / "room", {"time.end": 1.0}), tmp_path / "plain").output_dir
     CliRunner().invoke(main, ["plot", str(plain), "--no-animation", "-q"])
     assert not (plain / "plots" / "lines.png").exists()
+
+
+def test_a_closed_door_is_drawn_as_a_wall_at_the_frames_it_is_closed(tmp_path):
+    """Issue 25: the room's exit opens at t = 0.5: green (an exit) only in the picture of t = 1, and the title of
+    t = 0 says it is closed."""
+    case = load_case(ROOT / "cases" / "room", {"time.end": 1.0, "output.every": 0.5,
+                                              "boundary.open": {"exit": [[0.5, float("inf")]]}})
+    out = run(case, tmp_path / "run").output_dir
+    result = CliRunner().invoke(main, ["plot", str(out), "--no-animation", "-q", "--times", "0,1"])
+    assert result.exit_code == 0, result.output
+    closed, opened = (iio.imread(out / "plots" / f"density_t000{k}.0.png")[..., :3] for k in (0, 1))
+    assert not has_colour(closed, rgb(EXIT), tol=30) and has_colour(opened, rgb(EXIT), tol=6)
+    run_dir = RunDirectory(out)
+    plan = FloorPlan(run_dir)
+    assert plan.doors(0.0)[3] == ["exit"] and plan.doors(1.0)[3] == []
+
+
+def test_curves_leave_out_the_panels_empty_for_the_whole_run_and_count_people(tmp_path):
+    """Weidmann's law never saturates (f(rho_max) = 0): no pressure, no saturated area, so two panels; its
+    densities are people per m^2 (even with rho_max = 1); the constant law with rho_max = 1 counts fractions of
+    saturation, m^2 at rho_max, and keeps its pressure panels."""
+    labels = {}
+    for law, density in (("weidmann", 0.8), ("constant", 1.0)):   # (a saturated start: pressure at once)
+        case = load_case(ROOT / "cases" / "room", {"time.end": 0.5, "velocity.speed_law": law,
+                                                  "initial.density": density})
+        fig = curves_figure(RunDirectory(run(case, tmp_path / law).output_dir))
+        labels[law] = [(a.get_title(), a.get_ylabel()) for a in fig.axes]
+    assert labels["weidmann"] == [("people inside and evacuated", "people"), ("exit flow rate", "flow rate (people/s)")]
+    assert labels["constant"][:2] == [("people inside and evacuated", "crowd (m^2 at rho_max)"),
+                                      ("exit flow rate", "flow rate (m^2 at rho_max/s)")]
+    assert [title for title, _ in labels["constant"][2:]] == ["max pressure", "saturated area (rho = rho_max)"]
+
+
+def test_the_disc_legend_lies_below_the_floor_plan():
+    """Issue 25: the legend of the populations covered the entrance: it is in the band under the plan."""
+    walls = np.array([[[0, 0], [4, 0]], [[4, 0], [4, 4]], [[4, 4], [0, 4]]], float)
+    canvas = Canvas(((0, 4), (0, 4)), walls, np.array([[[0, 4], [0, 0]]], float), [], None, width=300)
+    frame = pv.from_meshio(disc_frame(np.array([[1.0, 1.0], [2.0, 2.0]]), np.full(2, 0.2), np.zeros((2, 2)),
+                                      np.zeros(2), {"population": np.array([0.0, 1.0])}))
+    canvas.show_disc_populations(frame, ["a", "b"])
+    (_, y), (_, tall) = canvas.legend.GetPosition(), canvas.legend.GetPosition2()
+    canvas.close()
+    assert (y + tall) * canvas.height <= canvas.BOTTOM + canvas.MARGIN   # below the plan's lowest pixel

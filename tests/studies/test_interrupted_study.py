@@ -43,7 +43,8 @@ def test_sigint_to_a_dask_study_keeps_its_finished_levels(tmp_path):
     assert sorted(int(r["level"]) for r in rows) == levels
     assert all(0 < float(r["l1"]) < 0.05 for r in rows)   # measured against the exact solution
     assert "interrupted" in (out / "convergence.md").read_text()
-    assert sorted(f.name for f in out.iterdir()) == [".femcrowd-run", "convergence.csv", "convergence.md"]
+    assert sorted(f.name for f in out.iterdir()) == [".femcrowd-lock", ".femcrowd-run", "convergence.csv",
+                                                     "convergence.md"]
     deadline = time.monotonic() + 10   # no worker left behind
     while time.monotonic() < deadline:
         try:

@@ -1,0 +1,168 @@
+"""A picture of a case before any run (``femcrowd plot CASE_DIR``): the scene as a run builds it.
+
+The scene comes from driver/scene.py (``build_scene``: the same checks as ``femcrowd run``, nothing run,
+nothing written but the picture): walls in grey, each exit in green (red and dashed when closed at t = 0)
+named with its schedule and capacity, the sources (entrances) in blue with their flow and span, the
+measurement lines (an arrow: the direction counted positive) and areas in purple, and the initial crowd:
+the density of a macro case (colour map), the discs of a micro case (a colour per population), with
+the number of people in the title. Matplotlib, not the pyvista canvas of the run pictures: a preview is one
+picture, and its labels are text artists a test can read.
+"""
+
+from pathlib import Path
+
+import matplotlib
+import numpy as np
+from matplotlib.collections import EllipseCollection, LineCollection
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch, Polygon
+from matplotlib.tri import Triangulation
+
+from ..driver.populations import disc_populations, initial_densities
+from ..driver.scene import build_scene, initial_discs
+from .canvas import CMAPS, EXIT, FLOOR, OBSTACLE, POPULATION_CMAPS, TEXT, WALL
+from .units import counts_people, crowd_unit, density_title
+
+CLOSED, SOURCE, MEASURE = "#d7301f", "#2b6cb0", "#7b3294"
+
+
+def _span(a, b):
+    return f"{a:g}-{b:g} s" if np.isfinite(b) else f"from {a:g} s"
+
+
+def schedule_text(door) -> str:
+    """'always open', 'closed', or 'open 0-10 s, from 15 s' from a door's spans."""
+    if door.spans is None:
+        return "always open"
+    return "open " + ", ".join(_span(a, b) for a, b in door.spans) if door.spans else "closed"
+
+
+def _segments(domain, facets):
+    return domain.points[domain.mesh.facets[:, facets].T]
+
+
+def _label(ax, text, middle, normal, colour, scale):
+    """Text just inside the boundary at `middle` (outward `normal`), aligned away from the boundary."""
+    across = abs(normal[0]) > abs(normal[1])
+    ax.annotate(text, middle - normal * 0.02 * scale, color=colour, fontsize=9, fontweight="bold",
+                ha=("right" if normal[0] > 0 else "left") if across else "center",
+                va="center" if across else ("top" if normal[1] > 0 else "bottom"),
+                bbox=dict(facecolor="white", alpha=0.8, edgecolor="none", pad=1.5), zorder=6)
+
+
+def crowd(scene):
+    """The initial crowd: (people per population {name: count}, draw(ax, fig) -> legend handles), in the case's
+    unit."""
+    case, domain = scene.case, scene.domain
+    rho = initial_densities(case, domain)   # (populations, cells), units of rho_max
+    names = [p.name for p in scene.populations]
+    rho_max = case["model"]["rho_max"]
+    if case["model"]["type"] == "micro":
+        q, r = initial_discs(case, domain, scene.boundary.at(0.0), rho.sum(axis=0) if len(rho) > 1 else None)
+        population = disc_populations(case, domain, rho, q)
+        counts = {name: int(np.sum(population == k)) for k, name in enumerate(names)}
+
+        def draw(ax, fig):
+            colours = np.array([matplotlib.colormaps[POPULATION_CMAPS[k % len(POPULATION_CMAPS)]](0.75)
+                                for k in range(len(names))])
+            ax.add_collection(EllipseCollection(2 * r, 2 * r, 0, units="xy", offsets=q, offset_transform=ax.transData,
+                                                facecolors=colours[population], edgecolors=TEXT, linewidths=0.4,
+                                                zorder=3))
+            return [Line2D([], [], ls="", marker="o", markerfacecolor=c, markeredgecolor=TEXT, label=f"disc: {name}")
+                    for name, c in zip(names, colours)] if len(names) > 1 else []
+        return counts, draw
+
+    counts = {name: float(domain.area @ rho[k]) * rho_max for k, name in enumerate(names)}
+
+    def draw(ax, fig):
+        total = rho.sum(axis=0) * rho_max
+        tri = Triangulation(*domain.points.T, domain.triangles, mask=total <= 0)
+        if (total > 0).any():
+            art = ax.tripcolor(tri, facecolors=total, cmap=CMAPS["density"], vmin=0, vmax=rho_max, zorder=2)
+            fig.colorbar(art, ax=ax, shrink=0.8, label=density_title(counts_people(case.config)))
+        return []
+    return counts, draw
+
+
+def scene_figure(case):
+    """(the matplotlib Figure of a case's scene at t = 0, its number of people): the scene built as a run builds
+    it, nothing run."""
+    scene = build_scene(case)
+    domain, boundary = scene.domain, scene.boundary
+    counts, draw = crowd(scene)
+    (x0, y0), (x1, y1) = domain.points.min(axis=0), domain.points.max(axis=0)
+    size = max(x1 - x0, y1 - y0)
+    fig = Figure(figsize=(10, float(np.clip(9 * (y1 - y0) / max(x1 - x0, 1e-12) + 1.6, 4, 12))),
+                 layout="constrained")
+    ax = fig.subplots()
+    ax.set_facecolor(OBSTACLE)   # holes (obstacles) show it; the floor is drawn over
+    ax.tripcolor(Triangulation(*domain.points.T, domain.triangles), np.zeros(len(domain.triangles)),
+                 cmap=matplotlib.colors.ListedColormap([FLOOR]), zorder=1)
+    legend = draw(ax, fig)
+    exits = np.zeros(len(domain.length), bool)
+    for f in domain.exit_group.values():
+        exits[f] = True
+    ax.add_collection(LineCollection(_segments(domain, ~domain.interior & ~exits), colors=WALL, linewidths=2,
+                                     capstyle="round", zorder=4))
+    legend.append(Line2D([], [], color=WALL, lw=2, label="wall"))
+    rho_max, people = case["model"]["rho_max"], counts_people(case.config)
+    for door in boundary.doors:
+        closed = door.exit and not door.is_open(0.0)
+        colour = CLOSED if closed else EXIT if door.exit else "#e08214"
+        ax.add_collection(LineCollection(_segments(domain, door.facets), colors=colour, linewidths=4,
+                                         linestyles="--" if closed else "-", zorder=5))
+        text = [door.name, schedule_text(door)] if door.exit else [f"{door.name} (interior door)"]
+        if door.capped:
+            text.append(f"capacity {door.capacity * rho_max:g} {'persons' if people else 'rho_max'}/(m s)")
+        f = door.facets
+        _label(ax, "\n".join(text), domain.midpoint[f].mean(axis=0), domain.normal[f].mean(axis=0), colour, size)
+    legend += [Line2D([], [], color=colour, lw=4, ls=style, label=f"exit, {state} at t = 0")
+               for colour, style, state in ((EXIT, "-", "open"), (CLOSED, "--", "closed"))
+               if any(door.exit and door.is_open(0.0) == (state == "open") for door in boundary.doors)]
+    for source in scene.sources:
+        f = source.facets
+        ax.add_collection(LineCollection(_segments(domain, f), colors=SOURCE, linewidths=4, zorder=5))
+        _label(ax, f"{source.boundary}: source {source.flow:g} {'persons' if people else 'rho_max'}/(m s), "
+                   f"{_span(source.start, source.end)}", domain.midpoint[f].mean(axis=0),
+               domain.normal[f].mean(axis=0), SOURCE, size)
+    if scene.sources:
+        legend.append(Line2D([], [], color=SOURCE, lw=4, label="source (arrivals)"))
+    for line in scene.lines:
+        ax.annotate("", line.b, line.a, arrowprops=dict(arrowstyle="->", color=MEASURE, lw=2, ls="--"), zorder=6)
+        ax.annotate(line.name, line.b, color=MEASURE, fontsize=9, ha="left", va="bottom",   # at the arrow's head
+                    xytext=(4, 4), textcoords="offset points", zorder=6)
+    for area in scene.areas:
+        ax.add_patch(Polygon(np.asarray(area.polygon.exterior.coords), closed=True, facecolor=MEASURE, alpha=0.15,
+                             edgecolor=MEASURE, lw=1.5, zorder=3))
+        (left, _, right, top) = area.polygon.bounds   # at its top, clear of the doors its side may touch
+        ax.annotate(area.name, ((left + right) / 2, top), color=MEASURE, fontsize=9, ha="center", va="top",
+                    xytext=(0, -3), textcoords="offset points", zorder=6)
+    if scene.lines:
+        legend.append(Line2D([], [], color=MEASURE, lw=2, ls="--", label="counting line (-> counted positive)"))
+    if scene.areas:
+        legend.append(Patch(facecolor=MEASURE, alpha=0.3, edgecolor=MEASURE, label="measurement area"))
+    ax.set_aspect("equal")
+    margin = 0.02 * size
+    ax.set(xlim=(x0 - margin, x1 + margin), ylim=(y0 - margin, y1 + margin), xlabel="x (m)", ylabel="y (m)")
+    ax.legend(handles=legend, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=min(len(legend), 4),
+              fontsize=8, frameon=False)   # below the axes: it covers no door
+    unit = "people" if case["model"]["type"] == "micro" else crowd_unit(people)
+    total = sum(counts.values())
+    amount = (lambda n: f"{n:.0f}") if unit == "people" else (lambda n: f"{n:.4g}")  # noqa: E731
+    crowd_text = f"{amount(total)} {unit}" + (" (" + ", ".join(f"{name} {amount(n)}" for name, n in counts.items())
+                                              + ")" if len(counts) > 1 else "")
+    fig.suptitle(f"{case['title']}\nscene at t = 0 ({case['model']['type']} model): {crowd_text}"
+                 + (", and arrivals" if scene.sources else ""), fontsize=11)
+    return fig, total
+
+
+def preview(case, out=None) -> tuple[Path, float]:
+    """Write the scene of a case to OUT/<case directory name>-preview.png (OUT: the current directory by
+    default); (the path, the number of people at t = 0)."""
+    fig, total = scene_figure(case)
+    directory = Path(out) if out is not None else Path.cwd()
+    directory.mkdir(parents=True, exist_ok=True)
+    path = directory / f"{case.file.parent.name}-preview.png"
+    fig.savefig(path, dpi=110)
+    return path, total

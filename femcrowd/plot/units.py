@@ -1,0 +1,22 @@
+"""The unit of the people in the pictures of a case or run: people, or crowd area at saturation.
+
+docs/case-format.md: densities are in the unit of `model.rho_max`; with rho_max = 5.4 they are people per
+m^2, with the default rho_max = 1 fractions of saturation, so a mass (density x m^2) is then the area the
+crowd fills at rho_max (m^2 at rho_max), unless Weidmann's law says the densities are people per m^2.
+"""
+
+
+def counts_people(case: dict) -> bool:
+    """Are the densities of the case (a case's resolved table, or a run's copy of it) people per m^2?"""
+    laws = [case.get("velocity", {}).get("speed_law")]
+    laws += [spec.get("speed_law") for spec in case.get("populations", {}).values()]
+    return case.get("model", {}).get("rho_max", 1.0) != 1 or "weidmann" in laws
+
+
+def density_title(people: bool) -> str:
+    return "density (people/m^2)" if people else "density (rho / rho_max)"
+
+
+def crowd_unit(people: bool) -> str:
+    """The unit of a number of people (history's mass or count), for axis labels: 'people' or 'm^2 at rho_max'."""
+    return "people" if people else "m^2 at rho_max"
