@@ -32,9 +32,11 @@ def test_a_door_stays_open_while_a_disc_stands_in_it(caplog):
     assert history["overlap_r"].max() <= 1e-9
     assert simulation.model.exits.open == ("exit",) and simulation.model._occupied("exit")
     assert not door_is_a_wall(simulation)
-    assert [r.getMessage() for r in caplog.records] == [
-        "exit 'exit' is to close at t = 6.15 s while discs stand in its doorway: it stays open until they have "
-        "left it"]
+    messages = [r.getMessage() for r in caplog.records]
+    assert messages[0] == ("exit 'exit' is to close at t = 6.15 s while discs stand in its doorway: it stays open "
+                           "until they have left it")
+    assert messages[1:] == [f"{CASES / 'narrow-door-micro' / 'case.toml'}: 65 people can never leave (t = 6.5 s): 65 "
+                            "people behind exits closed for good (exit)"]
 
 
 def test_a_door_closes_once_its_doorway_is_clear(caplog):
