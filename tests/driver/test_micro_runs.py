@@ -60,12 +60,17 @@ def test_explicit_discs_from_csv(tmp_path):
     assert summary["evacuation_time"] == pytest.approx(3.0 + 0.2, abs=0.3)  # 3 m at speed 1 (+ one step)
 
 
-def test_csv_with_a_disc_outside_is_refused(tmp_path):
-    (tmp_path / "discs.csv").write_text("x,y,r\n60.0,2.5,0.2\n")
+def discs_csv_case(folder, rows: str, extra: str = "") -> None:
+    """A disc case in `folder` on the narrow-door room, its discs the rows x,y,r of discs.csv."""
+    (folder / "discs.csv").write_text("x,y,r\n" + rows)
     mesh = (CASES.parent / "meshes" / "room_narrow_door.msh").resolve()
-    (tmp_path / "case.toml").write_text(
+    (folder / "case.toml").write_text(
         f'[mesh]\nfile = "{mesh}"\n[boundary]\nexits = ["exit"]\n[model]\ntype = "micro"\n'
-        f'[micro]\npositions = "discs.csv"\n')
+        f'[micro]\npositions = "discs.csv"\n' + extra)
+
+
+def test_csv_with_a_disc_outside_is_refused(tmp_path):
+    discs_csv_case(tmp_path, "60.0,2.5,0.2\n")
     with pytest.raises(InputError, match="micro.positions.*outside the domain"):
         run_micro(load_case(tmp_path), tmp_path / "out")
     result = CliRunner().invoke(main, ["run", str(tmp_path), "--out", str(tmp_path / "o2")])
@@ -82,11 +87,7 @@ def test_csv_with_a_disc_outside_is_refused(tmp_path):
 def test_csv_discs_that_overlap_or_cross_a_wall_are_refused(tmp_path, rows, words):
     """One line naming the case, the CSV, the line and the disc; exit 2, before anything is written (a disc of
     radius 100 was a traceback after the first frames; overlaps ran with 'max overlap 2.0 r')."""
-    (tmp_path / "discs.csv").write_text("x,y,r\n" + rows)
-    mesh = (CASES.parent / "meshes" / "room_narrow_door.msh").resolve()
-    (tmp_path / "case.toml").write_text(
-        f'[mesh]\nfile = "{mesh}"\n[boundary]\nexits = ["exit"]\n[model]\ntype = "micro"\n'
-        f'[micro]\npositions = "discs.csv"\n')
+    discs_csv_case(tmp_path, rows)
     result = CliRunner().invoke(main, ["run", str(tmp_path), "--out", str(tmp_path / "out"), "-q"])
     assert result.exit_code == 2 and result.stderr.count("\n") == 1, result.output
     assert "micro.positions = 'discs.csv'" in result.stderr and words in result.stderr, result.stderr
@@ -95,11 +96,7 @@ def test_csv_discs_that_overlap_or_cross_a_wall_are_refused(tmp_path, rows, word
 
 def test_discs_touching_each_other_and_a_wall_are_accepted(tmp_path):
     """Touching (gap 0 up to round-off) is not overlapping: discs at x = 0.2 (on the wall x = 0) and 0.6."""
-    (tmp_path / "discs.csv").write_text("x,y,r\n0.2,1,0.2\n0.6,1,0.2\n")
-    mesh = (CASES.parent / "meshes" / "room_narrow_door.msh").resolve()
-    (tmp_path / "case.toml").write_text(
-        f'[mesh]\nfile = "{mesh}"\n[boundary]\nexits = ["exit"]\n[model]\ntype = "micro"\n'
-        f'[micro]\npositions = "discs.csv"\n[time]\nend = 0.2\n')
+    discs_csv_case(tmp_path, "0.2,1,0.2\n0.6,1,0.2\n", "[time]\nend = 0.2\n")
     assert run_micro(load_case(tmp_path), tmp_path / "out")["initial_count"] == 2
 
 
