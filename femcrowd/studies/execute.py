@@ -5,6 +5,7 @@ import asyncio
 import logging
 import os
 import signal
+import tempfile
 import threading
 from contextlib import contextmanager
 
@@ -45,18 +46,23 @@ def execute(function, tasks: list, serial: bool = False, scheduler: str | None =
 
 def _distributed(function, tasks, scheduler, results, echo):
     """Fill results[i] = function(tasks[i]) through dask, in the order the runs finish."""
+    import dask
     from dask.distributed import Client, LocalCluster, as_completed
 
     if not logging.getLogger("femcrowd").isEnabledFor(logging.INFO):   # dask's INFO chatter unless -v
         for name in ("distributed", "bokeh", "tornado"):
             logging.getLogger(name).setLevel(logging.ERROR)
+    scratch = None
     if scheduler:
         client, cluster = Client(scheduler), None
     else:
-        with _sigint_ignored():
+        # the workers' scratch space (dask-scratch-space and its lock files) in a directory of this study's own,
+        # removed when it ends, not left in the system's temporary directory
+        scratch = tempfile.TemporaryDirectory(prefix="femcrowd-dask-")
+        with _sigint_ignored(), dask.config.set({"temporary-directory": scratch.name}):
             cluster = LocalCluster(n_workers=os.cpu_count() or 1, threads_per_worker=1,
                                    processes=True, dashboard_address=":0",
-                                   silence_logs=logging.ERROR)
+                                   silence_logs=logging.ERROR, local_directory=scratch.name)
         client = Client(cluster)
     try:
         futures = [client.submit(_in_worker(function), task, pure=False, priority=task.level) for task in tasks]
@@ -73,6 +79,7 @@ def _distributed(function, tasks, scheduler, results, echo):
         client.close()
         if cluster is not None:
             cluster.close()
+            scratch.cleanup()
 
 
 async def _stop_workers(nannies):
