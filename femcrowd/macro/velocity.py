@@ -156,10 +156,9 @@ class CongestionVelocity(ExitsVelocity):
     Each cell heads for the exit of least max(T_e, W_e) (one cannot pass a door before walking there, nor before
     those ahead have passed it), along -grad phi_e; a cell leaves the exit of its last route only for one faster
     by more than route_every. The waits are those of the last route's choices, up to route_every old: without
-    that margin the routes are a best response that flip-flops (30 of 75 people sent to the other door at every
-    route in a room with two doors at capacity, into the crowd behind them). The routes are re-solved every
-    ``route_every`` seconds of simulated time and at every door change. At rho = 0 phi_e is the distance of
-    :class:`ExitsVelocity`."""
+    that margin the routes are a best response that flip-flops (docs/model.md, "Route choice"). The routes are
+    re-solved every ``route_every`` seconds of simulated time and at every door change. At rho = 0 phi_e is the
+    distance of :class:`ExitsVelocity`."""
 
     def __init__(self, domain, speed, targets, law, route_every: float):
         super().__init__(domain, speed, targets)
