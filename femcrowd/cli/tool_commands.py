@@ -192,9 +192,10 @@ def info(case_dir, overrides):
     angles, Delaunay check, boundary groups and their lengths. Estimate: time
     step, steps, frames, memory and files, the plan `femcrowd run` checks
     against its limits (a case beyond them is named with the line the run
-    would stop with), and for macro cases a run-time range measured from a
-    few steps on this machine (below 1 s for the shipped cases). Nothing is
-    written.
+    would stop with), and the wall time of `femcrowd run` on this machine:
+    start-up and set-up as measured here, the run timed for up to 1.5 s and
+    extrapolated to when it ends (the crowd out, or time.end). Nothing is
+    written in the case.
 
     \b
     Examples:
@@ -203,9 +204,10 @@ def info(case_dir, overrides):
     """
     from ..driver.estimate import case_info
     from ..driver.people import initial_people
+    from ..timer import process_seconds
 
     case = load_case(case_dir, overrides)
-    info = case_info(case)
+    info = case_info(case, startup=process_seconds())
     if "over" not in info:   # a case beyond the limits is not set up (its discs not sampled)
         info.update(people=initial_people(case), sources=bool(case["sources"]))
     click.echo(format_info(info))
@@ -268,6 +270,23 @@ def _mesh_lines(info) -> list:
     return lines
 
 
+def _estimate_lines(e, end) -> list:
+    """The run time of `femcrowd info` (driver/estimate.py) and what it is based on."""
+    parts = (f"start-up {e['startup_seconds']:.2g} s, set-up {e['setup_seconds']:.2g} s, "
+             f"run {_duration(e['loop_seconds'])}")
+    if e["measured"]:
+        based = f"the whole run timed here: {e['steps']} steps to t = {e['end_time']:.4g} s"
+    else:
+        ends = {"time.end": "time.end"}.get(e["end"], f"t = {e['end_time']:.4g} s, {e['end']}")
+        based = (f"{e['prefix_steps']} steps to t = {e['prefix_time']:.3g} s timed here "
+                 f"({_duration(e['prefix_seconds'])}), extrapolated to about {_count(round(e['steps']))} steps "
+                 f"and their frames to {ends}")
+    lines = [f"  run time of femcrowd run: about {_duration(e['seconds'])} ({parts})", f"    based on {based}"]
+    if not e["measured"] and e["end"] != "time.end":
+        lines.append(f"    if people stay until time.end = {end:g} s: about {_duration(e['seconds_to_end'])}")
+    return lines
+
+
 def format_info(info):
     """The report printed by ``femcrowd info``."""
     lines = [f"case: {info['case_file']}", "",
@@ -290,10 +309,9 @@ def format_info(info):
     if "over" in info:
         lines.append(f"  beyond a limit: femcrowd run refuses it: {info['over']}")
     e = info.get("estimate")
-    if e is None:
-        if info["config"]["model"]["type"] == "micro":
-            lines.append("  run time: measured for macro cases only")
-        return "\n".join(lines)
+    if e is not None:
+        lines += _estimate_lines(e, info["config"]["time"]["end"])
+    return "\n".join(lines)
     low, high = e["seconds"]
     lines += [f"  run time: {_duration(low)} (no congestion) to {_duration(high)} "
               f"(the initial crowd's {e['congested_cells']} cells congested at every step)",

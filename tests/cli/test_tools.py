@@ -108,7 +108,10 @@ def test_info_prints_config_mesh_statistics_and_estimate():
     assert 20 < angle <= 60
     dt, steps = re.search(r"time step ([\d.e-]+) s -> about (\d+) steps", out).groups()
     assert int(steps) == pytest.approx(60 / float(dt), rel=1e-3)
-    assert re.search(r"run time: [\d.]+ (s|min) \(no congestion\) to [\d.]+ (s|min) ", out)
+    total, startup, setup, loop = re.search(r"run time of femcrowd run: about ([\d.]+) s \(start-up ([\d.]+) s, "
+                                            r"set-up ([\d.e-]+) s, run ([\d.]+) s\)", out).groups()
+    assert float(total) == pytest.approx(float(startup) + float(setup) + float(loop), abs=0.1)
+    assert re.search(r"based on (the whole run timed here|\d+ steps to t = [\d.]+ s timed here)", out)
     assert "121 frames" in out
 
 
