@@ -118,8 +118,8 @@ def _crowd(scene, model, t: float) -> tuple:
 def run_end(simulation: Simulation, prefix: dict) -> tuple:
     """When the run whose prefix was timed ends, and why: time.end (a run that does not stop when the crowd is
     out, or people with no exit open to reach) or the crowd out: at the outflow of the prefix's last quarter once
-    2 % of the crowd has left and that outflow no longer grows (and not before the farthest person has walked
-    out), else as a queue at the exits (:func:`_crowd`)."""
+    5 % of the crowd has left and that outflow no longer grows, or when that outflow is below the queue's (a
+    jam), and not before the farthest person has walked out; else as a queue at the exits (:func:`_crowd`)."""
     model, end, t = simulation.model, simulation.case["time"]["end"], prefix["t"]
     if not model.evacuation.stop:
         return end, "time.end"
@@ -131,12 +131,15 @@ def run_end(simulation: Simulation, prefix: dict) -> tuple:
     marks = prefix["marks"]
     half, late = (marks[min(int(np.searchsorted(marks[:, 1], marks[-1, 1] * f)), len(marks) - 2)] for f in (0.5, 0.75))
     rates = [(b[3] - a[3]) / max(b[0] - a[0], 1e-300) for a, b in ((half, late), (late, marks[-1]))]
-    if marks[-1, 3] >= 0.02 * (marks[-1, 3] + mass.sum()) and 0 < rates[1] <= 1.2 * rates[0]:
-        return _ending(end, max(t + mass.sum() / rates[1], ready.max()), "crowd out at the outflow of the prefix")
     if capacity <= 0:
         return end, "time.end: no exit capacity"
     behind = np.cumsum(mass[np.argsort(ready)][::-1])[::-1]   # the people ready at r_k or later
-    return _ending(end, float(np.max(np.sort(ready) + behind / capacity)), "crowd out in a queue at the exits")
+    queue = float(np.max(np.sort(ready) + behind / capacity))
+    # the queue's capacity is an upper bound of the outflow: an outflow seen lower (a jam) ends the run later
+    if marks[-1, 3] >= 0.05 * (marks[-1, 3] + mass.sum()) and 0 < rates[1] <= 1.2 * rates[0] or \
+            0 < rates[1] and t + mass.sum() / rates[1] > queue:
+        return _ending(end, max(t + mass.sum() / rates[1], ready.max()), "crowd out at the outflow of the prefix")
+    return _ending(end, queue, "crowd out in a queue at the exits")
 
 
 def _ending(end: float, out: float, why: str) -> tuple:
