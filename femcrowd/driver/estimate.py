@@ -118,8 +118,8 @@ def _crowd(scene, model, t: float) -> tuple:
 def run_end(simulation: Simulation, prefix: dict) -> tuple:
     """When the run whose prefix was timed ends, and why: time.end (a run that does not stop when the crowd is
     out, or people with no exit open to reach) or the crowd out: at the outflow of the prefix's last quarter once
-    5 % of the crowd has left and that outflow no longer grows, or when that outflow is below the queue's (a
-    jam), and not before the farthest person has walked out; else as a queue at the exits (:func:`_crowd`)."""
+    that outflow no longer grows and 5 % of the crowd has left or it is below the queue's (a jam), and not before
+    the farthest person has walked out; else as a queue at the exits (:func:`_crowd`)."""
     model, end, t = simulation.model, simulation.case["time"]["end"], prefix["t"]
     if not model.evacuation.stop:
         return end, "time.end"
@@ -136,8 +136,8 @@ def run_end(simulation: Simulation, prefix: dict) -> tuple:
     behind = np.cumsum(mass[np.argsort(ready)][::-1])[::-1]   # the people ready at r_k or later
     queue = float(np.max(np.sort(ready) + behind / capacity))
     # the queue's capacity is an upper bound of the outflow: an outflow seen lower (a jam) ends the run later
-    if marks[-1, 3] >= 0.05 * (marks[-1, 3] + mass.sum()) and 0 < rates[1] <= 1.2 * rates[0] or \
-            0 < rates[1] and t + mass.sum() / rates[1] > queue:
+    steady = 0 < rates[1] <= 1.2 * rates[0]
+    if steady and (marks[-1, 3] >= 0.05 * (marks[-1, 3] + mass.sum()) or t + mass.sum() / rates[1] > queue):
         return _ending(end, max(t + mass.sum() / rates[1], ready.max()), "crowd out at the outflow of the prefix")
     return _ending(end, queue, "crowd out in a queue at the exits")
 
