@@ -282,7 +282,11 @@ def _estimate_lines(e, end) -> list:
                  f"({_duration(e['prefix_seconds'])}), extrapolated to about {_count(round(e['steps']))} steps "
                  f"and their frames to {ends}")
     lines = [f"  run time of femcrowd run: about {_duration(e['seconds'])} ({parts})", f"    based on {based}"]
-    if not e["measured"] and e["end"] != "time.end":
+    if e.get("clog"):
+        out = e["startup_seconds"] + e["setup_seconds"] + e["loop_seconds"]
+        lines.append(f"    discs may clog at a door: {_duration(out)} if they do not, {_duration(e['seconds_to_end'])} "
+                     f"if they stay until time.end = {end:g} s; the estimate is between the two")
+    elif not e["measured"] and e["end"] != "time.end":
         lines.append(f"    if people stay until time.end = {end:g} s: about {_duration(e['seconds_to_end'])}")
     return lines
 
