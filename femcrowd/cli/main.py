@@ -10,6 +10,7 @@ import click
 
 from .. import __version__
 from ..errors import InputError, Interrupted
+from ..studies.execute import StudyInterrupted
 
 
 class FemcrowdGroup(click.Group):
@@ -28,6 +29,11 @@ class FemcrowdGroup(click.Group):
             sys.exit(2)
         except Interrupted as err:
             click.echo(f"femcrowd: interrupted; {err}", err=True)
+            sys.exit(130)
+        except StudyInterrupted as err:   # a study without a report of its own (sweep, validate)
+            done = sum(result is not None for result in err.results)
+            click.echo(f"femcrowd: interrupted; {done} of the study's {len(err.results)} runs finished, their output "
+                       "directories are kept (the study's table is not written: run it again)", err=True)
             sys.exit(130)
         except KeyboardInterrupt:
             click.echo("femcrowd: interrupted; frames, history.csv and summary.json written so far "

@@ -20,3 +20,30 @@ def test_sweep_writes_one_run_per_value_and_a_table(tmp_path):
     with open(root / "sweep.csv") as f:
         assert len(list(csv.DictReader(f))) == 2
     assert "| scheme.transport |" in (root / "sweep.md").read_text()
+
+
+def test_an_interrupted_sweep_keeps_its_finished_runs_and_says_so(tmp_path, monkeypatch):
+    """Ctrl-C during the second run: one line saying how many runs finished (their directories kept), exit 130,
+    no traceback."""
+    from click.testing import CliRunner
+
+    import femcrowd.studies.sweep as module
+    from femcrowd.cli import main
+
+    finished, run_one = [], module.sweep_task
+
+    def second_interrupted(task):
+        if finished:
+            raise KeyboardInterrupt
+        finished.append(run_one(task))
+        return finished[-1]
+
+    monkeypatch.setattr(module, "sweep_task", second_interrupted)
+    result = CliRunner().invoke(main, ["sweep", str(CASES / "corridor-wall"), "--set-values",
+                                       "scheme.transport=upwind,muscl", "--set", "time.end=0.2", "--serial",
+                                       "--out", str(tmp_path / "sweep")])
+    assert result.exit_code == 130, result.output
+    assert result.stderr == ("femcrowd: interrupted; 1 of the study's 2 runs finished, their output directories are "
+                             "kept (the study's table is not written: run it again)\n")
+    summary = json.loads((Path(finished[0]["output_dir"]) / "summary.json").read_text())
+    assert summary["status"] == "completed"
