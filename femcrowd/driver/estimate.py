@@ -162,11 +162,19 @@ def estimate(simulation: Simulation, setup: float, startup: float = 0.0, budget:
         loop, steps = _extrapolate(prefix, stop, every)
         result["seconds_to_end"] = startup + setup + _extrapolate(prefix, simulation.case["time"]["end"], every)[0]
     result.update(loop_seconds=loop, steps=steps, end_time=stop, end=basis, seconds=startup + setup + loop)
-    if hasattr(simulation.model, "sim") and basis.endswith("queue at the exits"):
-        # discs may clog at a door, and whether an arch holds is decided by round-off (docs/micro.md): no prefix
-        # tells; the estimate is halfway, geometrically, between the crowd out and time.end (a factor apart)
+    if basis.endswith("queue at the exits") and _may_clog(simulation):
+        # whether an arch holds is decided by round-off (docs/micro.md): no prefix tells; the estimate is halfway,
+        # geometrically, between the crowd out and time.end (a factor apart)
         result.update(seconds=math.sqrt(result["seconds"] * result["seconds_to_end"]), clog=True)
     return result
+
+
+def _may_clog(simulation: Simulation) -> bool:
+    """Discs of the paper's model (a constant desired speed, no fluctuation) clog at narrow doors for good
+    (docs/validation.md); a speed law or a fluctuation frees them."""
+    case = simulation.case
+    return (hasattr(simulation.model, "sim") and case["micro"]["fluctuation"] == 0
+            and all(p.law.constant for p in simulation.scene.populations))
 
 
 def _extrapolate(prefix: dict, stop: float, every: float) -> tuple:
