@@ -89,8 +89,8 @@ class Verdict:
 class Spread:
     """The verdicts of one test and variant over the seeds of the discs (micro.seed = 1 to n): each figure as its
     median and, where the seeds differ, its range, ``"N2 126 (106-237)"`` (in the format of the figure); the
-    verdict as the number of seeds that pass. Seeds whose verdicts read differently (a corridor that clogs in
-    one seed, flows in the others) are given apart, with how many seeds each."""
+    verdict as the number of seeds that pass and that fail, ``"pass 3/5, fail 2/5"``. Seeds whose verdicts read
+    differently (a corridor that clogs in one seed, flows in the others) are given apart, with how many seeds each."""
 
     verdicts: list
 
@@ -100,7 +100,8 @@ class Spread:
 
     @property
     def label(self) -> str:
-        return f"pass {sum(v.passed for v in self.verdicts)}/{len(self.verdicts)}"
+        n, passed = len(self.verdicts), sum(v.passed for v in self.verdicts)
+        return ", ".join(f"{word} {k}/{n}" for word, k in (("pass", passed), ("fail", n - passed)) if k)
 
     @property
     def value(self) -> str:
@@ -357,8 +358,8 @@ def run_all(only=(), models=MODELS, cases=CASES, out=None, echo=None, seeds=None
 
 
 def format_row(test: RimeaTest, verdicts: dict) -> str:
-    cells = ["not run" if v is None else f"{v[0].value} ({v[0].label if v[0].passed else v[0].label.upper()}, "
-             f"{v[1]:.0f} s)" for v in verdicts.values()]
+    cells = ["not run" if v is None else f"{v[0].value} ({v[0].label.replace('fail', 'FAIL')}, {v[1]:.0f} s)"
+             for v in verdicts.values()]
     return f"{test.number:>3} {test.title:<30} " + " | ".join(cells)
 
 
@@ -375,6 +376,6 @@ def table_markdown(rows) -> str:
     if spreads:
         n = len(spreads[0].verdicts)
         lines += ["", f"Disc columns: each figure the median (min-max) over micro.seed = 1 to {n} (one value: all "
-                      f"seeds alike), pass k/{n}: the seeds that pass, the seconds those of all {n}; macro columns: "
-                      "one run (deterministic)."]
+                      f"seeds alike), pass k/{n}, fail k/{n}: the seeds that pass, that fail; the seconds those of all "
+                      f"{n}; macro columns: one run (deterministic)."]
     return "\n".join(lines) + "\n"

@@ -72,7 +72,7 @@ def test_a_spread_gives_each_figure_over_the_seeds():
              for n4, n2, ok in [(381, 126, False), (434, 237, True), (400, 106, False)]]
     spread = rimea.Spread(seeds)
     assert spread.value == "out by 40 s: N4 400 (381-434), N2 126 (106-237)"
-    assert spread.label == "pass 1/3" and not spread.passed
+    assert spread.label == "pass 1/3, fail 2/3" and not spread.passed
     clogged = rimea.Verdict("{left:.0f} left", {"left": 60.0}, False)
     assert rimea.Spread([*seeds[:2], clogged]).value == ("out by 40 s: N4 408 (381-434), N2 182 (126-237) in 2 of 3 "
                                                          "seeds; 60 left in 1 of 3 seeds")
@@ -85,7 +85,7 @@ def test_rimea_seeds_give_the_disc_figures_as_ranges(tmp_path):
                                        "--seeds", "2", "--out", str(tmp_path)])
     assert result.exit_code == 0, result.output
     row = (tmp_path / "rimea.md").read_text().splitlines()[2]
-    low, middle, high = (float(x) for x in re.search(r"([\d.]+) \(([\d.]+)-([\d.]+)\) s: \*\*pass [012]/2", row)
+    low, middle, high = (float(x) for x in re.search(r"([\d.]+) \(([\d.]+)-([\d.]+)\) s: \*\*(pass|fail) [12]/2", row)
                          .group(2, 1, 3))
     assert low <= middle <= high and low < high, row
     assert "30.1 s: **pass** (" in row, row   # macro: one run, a plain verdict
