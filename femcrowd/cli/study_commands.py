@@ -141,7 +141,7 @@ def stress(out, only, cases, force, checks):
                    "the route choice velocity.route = \"congestion\" (tests 10 and 11 only).")
 @click.option("--seeds", type=click.IntRange(min=1), default=None, metavar="N",
               help="Run each disc variant N times, with micro.seed = 1 to N (OUT/<case>-<model>-seed<k>), and give "
-                   "each of its figures as the median (min-max) over the seeds and its verdict as pass k/N (the "
+                   "each of its figures as the median (min-max) over the seeds, its verdict as pass k/N, fail k/N (the "
                    "discs' sampling, their fluctuation and which arch holds at a door vary with the seed); the macro "
                    "variants, deterministic, run once. Default: one run with the case's seed.")
 def rimea(out, only, models, seeds):
