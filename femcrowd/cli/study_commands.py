@@ -139,7 +139,12 @@ def stress(out, only, cases, force, checks):
                    "-capacity: a capacity of 1.9 persons/(m s) on every door; -pushing: Weidmann's law with "
                    "push 0.2; -recommended: the settings of docs/validation.md; -routes: the recommended ones with "
                    "the route choice velocity.route = \"congestion\" (tests 10 and 11 only).")
-def rimea(out, only, models):
+@click.option("--seeds", type=click.IntRange(min=1), default=None, metavar="N",
+              help="Run each disc variant N times, with micro.seed = 1 to N (OUT/<case>-<model>-seed<k>), and give "
+                   "each of its figures as the median (min-max) over the seeds, its verdict as pass k/N, fail k/N (the "
+                   "discs' sampling, their fluctuation and which arch holds at a door vary with the seed); the macro "
+                   "variants, deterministic, run once. Default: one run with the case's seed.")
+def rimea(out, only, models, seeds):
     """Run the RiMEA verification tests of cases/rimea with both models and print the table.
 
     Tests 1 (corridor), 4 (fundamental diagram), 6 (corner), 9 (four doors,
@@ -154,6 +159,7 @@ def rimea(out, only, models):
       femcrowd rimea
       femcrowd rimea --only 9 --model macro --out /tmp/rimea
       femcrowd rimea --only 10 --only 11 --out /tmp/rimea
+      femcrowd rimea --seeds 5 --model micro --model micro-recommended
     """
     from ..studies import rimea as rm
 
@@ -162,7 +168,7 @@ def rimea(out, only, models):
         rm.select(only)
     except ValueError as err:
         raise click.BadParameter(str(err), param_hint="--only") from None
-    rows = rm.run_all(only, models or rm.MODELS, out=out, echo=click.echo)
+    rows = rm.run_all(only, models or rm.MODELS, out=out, echo=click.echo, seeds=seeds)
     table = rm.table_markdown(rows)
     Path(out).mkdir(parents=True, exist_ok=True)
     (Path(out) / "rimea.md").write_text(table)

@@ -8,11 +8,14 @@ JuPedSim's RiMEA tests, Juelich Supercomputing Centre); each runs with every var
 settings docs/validation.md recommends for realistic door flows (door capacities, a speed law that pushes,
 arch-breaking discs), and in the tests of route choice (10, 11) the recommended settings with the route choice
 that sees the crowd (``velocity.route = "congestion"``, femcrowd/macro/velocity.py CongestionVelocity). Each test
-judges what a user reads from the run: history, summary, measurements.csv.
+judges what a user reads from the run: history, summary, measurements.csv. The disc runs depend on the
+sampling of the discs and their fluctuation (``micro.seed``), and which arch holds at a door even on round-off:
+with ``seeds`` they run once per seed and each figure is given over the seeds (:class:`Spread`).
 """
 
 from dataclasses import dataclass
 from pathlib import Path
+from string import Formatter
 from typing import Callable
 
 import numpy as np
@@ -66,10 +69,60 @@ PLAIN = MODELS[:6]
 
 @dataclass
 class Verdict:
-    """What a model shows in a test and whether that meets the criterion."""
+    """What a model shows in a test and whether that meets the criterion: `text`, a format string of the
+    `figures` (``"N4 {n4:.0f}"``), so that the figures of several seeds can be put together (:class:`Spread`)."""
 
-    value: str
+    text: str
+    figures: dict
     passed: bool
+
+    @property
+    def value(self) -> str:
+        return self.text.format(**self.figures)
+
+    @property
+    def label(self) -> str:
+        return "pass" if self.passed else "fail"
+
+
+@dataclass
+class Spread:
+    """The verdicts of one test and variant over the seeds of the discs (micro.seed = 1 to n): each figure as its
+    median and, where the seeds differ, its range, ``"N2 126 (106-237)"`` (in the format of the figure); the
+    verdict as the number of seeds that pass and that fail, ``"pass 3/5, fail 2/5"``. Seeds whose verdicts read
+    differently (a corridor that clogs in one seed, flows in the others) are given apart, with how many seeds each."""
+
+    verdicts: list
+
+    @property
+    def passed(self) -> bool:
+        return all(v.passed for v in self.verdicts)
+
+    @property
+    def label(self) -> str:
+        n, passed = len(self.verdicts), sum(v.passed for v in self.verdicts)
+        return ", ".join(f"{word} {k}/{n}" for word, k in (("pass", passed), ("fail", n - passed)) if k)
+
+    @property
+    def value(self) -> str:
+        texts = list(dict.fromkeys(v.text for v in self.verdicts))
+        if len(texts) == 1:
+            return spread_text(texts[0], self.verdicts)
+        return "; ".join(f"{spread_text(t, group)} in {len(group)} of {len(self.verdicts)} seeds"
+                         for t in texts for group in [[v for v in self.verdicts if v.text == t]])
+
+
+def spread_text(text: str, verdicts: list) -> str:
+    """`text` with each figure the median (min-max) of its values in `verdicts`, or their value if all read alike."""
+    parts = []
+    for literal, field, spec, _ in Formatter().parse(text):
+        parts.append(literal)
+        if field is None:
+            continue
+        values = np.array([v.figures[field] for v in verdicts], dtype=float)
+        low, middle, high = (format(x, spec) for x in (values.min(), np.median(values), values.max()))
+        parts.append(middle if low == high else f"{middle} ({low}-{high})")
+    return "".join(parts)
 
 
 @dataclass
@@ -111,7 +164,7 @@ def corridor(results) -> Verdict:
     r = results[0]
     half = people(r) / 2
     seconds = crossing_time(r.measurements, "end", half) - crossing_time(r.measurements, "start", half)
-    return Verdict(f"{seconds:.1f} s", 26.0 <= seconds <= 34.0)
+    return Verdict("{seconds:.1f} s", {"seconds": seconds}, 26.0 <= seconds <= 34.0)
 
 
 def corner(results) -> Verdict:
@@ -121,9 +174,11 @@ def corner(results) -> Verdict:
     out = float(h["evacuated"][-1])
     if "mass" in h:   # the density leaves only through the exit: mass + evacuated = mass(0) at every step
         leak = float(r.summary["max_mass_error"])
-        return Verdict(f"{out:.2f} of {n:.2f} out, mass error {leak:.0e}", out >= n - 0.01 and leak < 1e-10)
+        return Verdict("{out:.2f} of {n:.2f} out, mass error {leak:.0e}", {"out": out, "n": n, "leak": leak},
+                       out >= n - 0.01 and leak < 1e-10)
     outside = int(r.summary["discs_outside"])
-    return Verdict(f"{out:.0f} of {n:.0f} out, {outside} discs outside", out == n and outside == 0)
+    return Verdict("{out:.0f} of {n:.0f} out, {outside:.0f} discs outside", {"out": out, "n": n, "outside": outside},
+                   out == n and outside == 0)
 
 
 #: test 4: the densities of the corridor (persons/m^2), and how far from Weidmann's speed a measured one may be
@@ -143,9 +198,9 @@ def fundamental_diagram(results) -> Verdict:
                        for r in results])
     density = np.array(DENSITIES[:len(speeds)])
     close = np.abs(speeds - weidmann_speed(density))[density <= 4.0].max()
-    value = ", ".join(f"{d:g}: {v:.2f}" for d, v in zip(density, speeds)) + " m/s"
+    text = ", ".join(f"{d:g}: {{v{k}:.2f}}" for k, d in enumerate(density)) + " m/s"
     falls = np.all(np.diff(speeds) <= 1e-9) and speeds[-1] < speeds[0]
-    return Verdict(value, bool(falls and close <= WEIDMANN_TOLERANCE))
+    return Verdict(text, {f"v{k}": float(v) for k, v in enumerate(speeds)}, bool(falls and close <= WEIDMANN_TOLERANCE))
 
 
 #: test 9: the space is empty when less than this fraction is inside (half a person of 1000: the last one left)
@@ -166,11 +221,13 @@ def four_and_two_doors(results) -> Verdict:
     four, two = (evacuation_time(r) for r in results)
     if np.isfinite(four) and np.isfinite(two):
         ratio = two / four
-        return Verdict(f"T4 {four:.0f} s, T2 {two:.0f} s, ratio {ratio:.2f}", 1.5 <= ratio <= 2.5)
+        return Verdict("T4 {four:.0f} s, T2 {two:.0f} s, ratio {ratio:.2f}", {"four": four, "two": two, "ratio": ratio},
+                       1.5 <= ratio <= 2.5)
     end = min(r.history["time"][-1] for r in results)
     n4, n2 = (float(np.interp(end, r.history["time"], r.history["evacuated"])) for r in results)
     ratio = n4 / n2 if n2 > 0 else np.inf
-    return Verdict(f"out by {end:.0f} s: N4 {n4:.0f}, N2 {n2:.0f}, ratio {ratio:.2f}", 1.5 <= ratio <= 2.5)
+    return Verdict("out by {end:.0f} s: N4 {n4:.0f}, N2 {n2:.0f}, ratio {ratio:.2f}",
+                   {"end": end, "n4": n4, "n2": n2, "ratio": ratio}, 1.5 <= ratio <= 2.5)
 
 
 #: test 10: each exit and the population assigned to it ([populations.<name>] exits = [exit])
@@ -184,16 +241,18 @@ def assigned_exits(results) -> Verdict:
     one-way misrouting caught); and everyone has to leave (the last out within the run)."""
     r = results[0]
     h, m = r.history, r.measurements
-    cells, wrong, inside = [], 0.0, 0.0
+    cells, figures, wrong, inside = [], {}, 0.0, 0.0
     for door, population in ASSIGNED.items():
         n = float(h[f"mass_{population}"][0] if f"mass_{population}" in h else h[f"count_{population}"][0])
         out, through = float(h[f"evacuated_{population}"][-1]), float(m[f"{door}_count"][-1])
-        cells.append(f"{door} {through:.4g} of {n:.0f}")
+        cells.append(f"{door} {{{door}:.4g}} of {{n_{door}:.0f}}")
+        figures.update({door: through, f"n_{door}": n})
         wrong += max(through - out, 0.0)
         inside += n - out
-    end = float(h["time"][-1])
-    state = f"all out by {end:.0f} s" if inside < 0.05 else f"{inside:.4g} inside at {end:.0f} s"
-    return Verdict(f"{', '.join(cells)}, {wrong:.1f} by the other exit; {state}", wrong < 0.05 and inside < 0.05)
+    figures.update(wrong=wrong, inside=inside, end=float(h["time"][-1]))
+    state = "all out by {end:.0f} s" if inside < 0.05 else "{inside:.4g} inside at {end:.0f} s"
+    return Verdict(f"{', '.join(cells)}, {{wrong:.1f}} by the other exit; {state}", figures,
+                   wrong < 0.05 and inside < 0.05)
 
 
 def exit_choice(results) -> Verdict:
@@ -201,8 +260,8 @@ def exit_choice(results) -> Verdict:
     m = results[0].measurements   # lines on the two doors
     near, far = float(m["near_count"][-1]), float(m["far_count"][-1])
     total = near + far
-    return Verdict(f"near {100 * near / total:.0f} %, far {100 * far / total:.1f} % ({far:.1f} persons)",
-                   near > far and far >= 1.0)
+    return Verdict("near {near:.0f} %, far {far:.1f} % ({persons:.1f} persons)",
+                   {"near": 100 * near / total, "far": 100 * far / total, "persons": far}, near > far and far >= 1.0)
 
 
 def flow(m: dict, line: str, n: float) -> float:
@@ -216,10 +275,11 @@ def bottlenecks(results) -> Verdict:
     n = people(r)
     m = r.measurements
     if m["exit_count"][-1] < 0.9 * n:   # a jam that never clears (a stable arch of discs): no flow to compare
-        return Verdict(f"{m['bottleneck_count'][-1]:.0f} of {n:.0f} left the corridor, "
-                       f"{m['exit_count'][-1]:.0f} the exit by t = {m['time'][-1]:.0f} s", False)
+        return Verdict("{left:.0f} of {n:.0f} left the corridor, {out:.0f} the exit by t = {end:.0f} s",
+                       {"left": float(m["bottleneck_count"][-1]), "n": n, "out": float(m["exit_count"][-1]),
+                        "end": float(m["time"][-1])}, False)
     jb, je = flow(m, "bottleneck", n), flow(m, "exit", n)
-    return Verdict(f"J_b {jb:.2f} /s, J_e {je:.2f} /s", je >= jb - 0.05)
+    return Verdict("J_b {jb:.2f} /s, J_e {je:.2f} /s", {"jb": jb, "je": je}, je >= jb - 0.05)
 
 
 TESTS = [
@@ -257,28 +317,40 @@ def select(only=()) -> list:
     return [t for t in TESTS if not only or t.number in only]
 
 
-def run_test(test: RimeaTest, variant: str, cases=CASES, out=None) -> tuple:
-    """Run a test's cases with one variant (writing OUT/<case>-<variant> when out is given); (Verdict, seconds)."""
+def run_test(test: RimeaTest, variant: str, cases=CASES, out=None, seed=None) -> tuple:
+    """Run a test's cases with one variant (writing OUT/<case>-<variant> when out is given, OUT/<case>-<variant>-seed<k>
+    for a disc variant given a seed k: micro.seed = k); (Verdict, seconds)."""
     clock = Stopwatch()
     chosen, results = VARIANTS[variant], []
+    seeded = {"micro.seed": seed} if chosen.micro and seed is not None else {}
     for k, entry in enumerate(test.cases):
         name, own = (entry, {}) if isinstance(entry, str) else entry
-        overrides = {**chosen.overrides, **own, **((test.micro or {}) if chosen.micro else {})}
+        overrides = {**chosen.overrides, **own, **((test.micro or {}) if chosen.micro else {}), **seeded}
         if chosen.doors:
             overrides.update(door_capacity([*load_case(Path(cases) / name)["boundary"]["exits"], *test.doors]))
         case = load_case(Path(cases) / name, overrides)
-        suffix = "" if isinstance(entry, str) else f"-{k}"
+        suffix = ("" if isinstance(entry, str) else f"-{k}") + (f"-seed{seed}" if seeded else "")
         target = Path(out) / f"{name}-{variant}{suffix}" if out is not None else None
         results.append(Simulation(case).run(target, force=True))
     return test.judge(results), clock.seconds
 
 
-def run_all(only=(), models=MODELS, cases=CASES, out=None, echo=None) -> list:
-    """Every selected test with every variant in `models` it runs with: rows (test, {variant: (Verdict, seconds)})."""
+def run_seeds(test: RimeaTest, variant: str, seeds: int, cases=CASES, out=None) -> tuple:
+    """A disc variant with micro.seed = 1 to `seeds` (Spread, seconds of all); a macro variant, deterministic, once."""
+    if not VARIANTS[variant].micro:
+        return run_test(test, variant, cases, out)
+    runs = [run_test(test, variant, cases, out, seed) for seed in range(1, seeds + 1)]
+    return Spread([verdict for verdict, _ in runs]), sum(seconds for _, seconds in runs)
+
+
+def run_all(only=(), models=MODELS, cases=CASES, out=None, echo=None, seeds=None) -> list:
+    """Every selected test with every variant in `models` it runs with: rows (test, {variant: (Verdict, seconds)});
+    with `seeds`, the disc variants over micro.seed = 1 to `seeds` (:func:`run_seeds`: (Spread, seconds))."""
     rows = []
     for test in select(only):
-        verdicts = {variant: run_test(test, variant, cases, out) if variant in test.variants else None
-                    for variant in models}
+        verdicts = {variant: None if variant not in test.variants
+                    else run_test(test, variant, cases, out) if seeds is None
+                    else run_seeds(test, variant, seeds, cases, out) for variant in models}
         rows.append((test, verdicts))
         if echo is not None:
             echo(format_row(test, verdicts))
@@ -286,18 +358,24 @@ def run_all(only=(), models=MODELS, cases=CASES, out=None, echo=None) -> list:
 
 
 def format_row(test: RimeaTest, verdicts: dict) -> str:
-    cells = ["not run" if v is None else f"{v[0].value} ({'pass' if v[0].passed else 'FAIL'}, {v[1]:.0f} s)"
+    cells = ["not run" if v is None else f"{v[0].value} ({v[0].label.replace('fail', 'FAIL')}, {v[1]:.0f} s)"
              for v in verdicts.values()]
     return f"{test.number:>3} {test.title:<30} " + " | ".join(cells)
 
 
 def table_markdown(rows) -> str:
-    """The table of docs/rimea.md."""
+    """The table of docs/rimea.md; below it, when disc variants ran over seeds, how to read their cells."""
     variants = list(rows[0][1]) if rows else list(MODELS)
     lines = ["| test | criterion (RiMEA) | " + " | ".join(VARIANTS[v].label for v in variants) + " |",
              "|---|---|" + "---|" * len(variants)]
     for test, verdicts in rows:
-        cells = ["not run" if v is None else f"{v[0].value}: **{'pass' if v[0].passed else 'fail'}** ({v[1]:.0f} s)"
+        cells = ["not run" if v is None else f"{v[0].value}: **{v[0].label}** ({v[1]:.0f} s)"
                  for v in verdicts.values()]
         lines.append(f"| {test.number} {test.title} | {test.criterion} | " + " | ".join(cells) + " |")
+    spreads = [v[0] for _, verdicts in rows for v in verdicts.values() if v is not None and isinstance(v[0], Spread)]
+    if spreads:
+        n = len(spreads[0].verdicts)
+        lines += ["", f"Disc columns: each figure the median (min-max) over micro.seed = 1 to {n} (one value: all "
+                      f"seeds alike), pass k/{n}, fail k/{n}: the seeds that pass, that fail; the seconds those of all "
+                      f"{n}; macro columns: one run (deterministic)."]
     return "\n".join(lines) + "\n"

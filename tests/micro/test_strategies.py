@@ -72,8 +72,9 @@ def test_density_seen_and_speed_law():
 
 
 def test_counterflow_push_gridlocks_bypass_crosses():
-    """cases/counterflow-micro (two groups at 0.3 in a 3 m corridor): pushing discs lock in the middle,
-    discs that bypass the slower people they see all reach their exits."""
+    """cases/counterflow-micro (two groups at 0.3 in a 3 m corridor), its sampling (seed 1): pushing discs lock
+    in the middle, discs that bypass the slower people they see all reach their exits (in seeds 2 and 3 the pushing
+    discs' lock gives way: docs/extensions.md)."""
     outcome = {}
     for strategy, end in (("push", 30.0), ("bypass", 40.0)):
         case = load_case(CASES / "counterflow-micro", {"micro.strategy": strategy, "time.end": end})

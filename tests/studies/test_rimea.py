@@ -1,5 +1,7 @@
 """The RiMEA verification tests (femcrowd rimea, docs/rimea.md): the judges on the real runs."""
 
+import re
+
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -60,6 +62,38 @@ def test_rimea_test_11_route_choice_sends_some_to_the_far_exit_early(tmp_path):
                            rimea.exit_choice, variants=("micro-routes",))
     verdict, _ = rimea.run_test(test, "micro-routes", out=tmp_path)
     assert verdict.passed, verdict
+
+
+def test_a_spread_gives_each_figure_over_the_seeds():
+    """Each figure the median (min-max) of the seeds in its own format, one value where all seeds read alike; a
+    verdict that reads differently in some seeds (a clogged corridor) is given apart, with its seeds."""
+    text = "out by {end:.0f} s: N4 {n4:.0f}, N2 {n2:.0f}"
+    seeds = [rimea.Verdict(text, {"end": 40.0, "n4": n4, "n2": n2}, ok)
+             for n4, n2, ok in [(381, 126, False), (434, 237, True), (400, 106, False)]]
+    spread = rimea.Spread(seeds)
+    assert spread.value == "out by 40 s: N4 400 (381-434), N2 126 (106-237)"
+    assert spread.label == "pass 1/3, fail 2/3" and not spread.passed
+    clogged = rimea.Verdict("{left:.0f} left", {"left": 60.0}, False)
+    assert rimea.Spread([*seeds[:2], clogged]).value == ("out by 40 s: N4 408 (381-434), N2 182 (126-237) in 2 of 3 "
+                                                         "seeds; 60 left in 1 of 3 seeds")
+
+
+def test_rimea_seeds_give_the_disc_figures_as_ranges(tmp_path):
+    """`--seeds 2` on test 1 runs the recommended discs with micro.seed 1 and 2 (other samplings, another
+    fluctuation): the time is given as median (min-max), min <= median <= max; the macro column runs once."""
+    result = CliRunner().invoke(main, ["rimea", "--only", "1", "--model", "macro", "--model", "micro-recommended",
+                                       "--seeds", "2", "--out", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    row = (tmp_path / "rimea.md").read_text().splitlines()[2]
+    low, middle, high = (float(x) for x in re.search(r"([\d.]+) \(([\d.]+)-([\d.]+)\) s: \*\*(pass|fail) [12]/2", row)
+                         .group(2, 1, 3))
+    assert low <= middle <= high and low < high, row
+    assert "30.1 s: **pass** (" in row, row   # macro: one run, a plain verdict
+    first = [(tmp_path / f"test01-corridor-micro-recommended-seed{k}" / "trajectories.txt").read_text().splitlines()[4]
+             for k in (1, 2)]
+    assert first[0] != first[1], first   # the disc sampled at another place
+    assert not (tmp_path / "test01-corridor-macro-seed1").exists() and (tmp_path / "test01-corridor-macro").is_dir()
+    assert "median (min-max) over micro.seed = 1 to 2" in (tmp_path / "rimea.md").read_text()
 
 
 def test_unknown_test_is_refused():
