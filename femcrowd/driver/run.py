@@ -73,9 +73,10 @@ class Simulation:
         with thread_limit(threads):
             self.threads_seconds = self._wall.seconds  # finding the pools, once per process
             self.scene = build_scene(case, self.plan)   # the mesh's size, before refining
-            self.plan.discs(self.scene)
-            self.model = MODELS[case["model"]["type"]](self.scene)
-            self.plan.run(self.model)
+            with self.scene.timer("setup"):   # the model's set-up, its own phases (discs, assembly) apart
+                self.plan.discs(self.scene)
+                self.model = MODELS[case["model"]["type"]](self.scene)
+                self.plan.run(self.model)
         log.info("set up %s: %s", case.file, ", ".join(f"{k} {v:.3g} s" for k, v in self.scene.timer.items()))
 
     def run(self, out=None, force: bool = False, quiet: bool = True, stops=(), on_stop=None,

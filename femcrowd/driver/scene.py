@@ -38,8 +38,9 @@ class Scene:
 
 
 def build_scene(case: Case, plan=None) -> Scene:
-    """Load the mesh and build the desired velocity of each population (timed: mesh, desired_velocity); plan: a
-    run's Plan (driver/limits.py), told the mesh's size before it is refined."""
+    """Load the mesh and build the desired velocity of each population (timed: mesh, desired_velocity; the
+    plausibility warnings: checks); plan: a run's Plan (driver/limits.py), told the mesh's size before it is
+    refined."""
     timer = Timer()
     with timer("mesh"):
         domain = load_domain(case.path(case["mesh"]["file"]), case["boundary"]["exits"],
@@ -50,7 +51,8 @@ def build_scene(case: Case, plan=None) -> Scene:
     with timer("desired_velocity"):
         populations = build_populations(case, domain, boundary)
     scene = Scene(case, domain, boundary, timer, populations, sources, lines, areas)
-    warn_implausible(scene)
+    with timer("checks"):
+        warn_implausible(scene)
     return scene
 
 
