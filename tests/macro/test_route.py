@@ -30,6 +30,24 @@ def test_at_zero_density_the_route_is_the_shortest_path():
     assert route.route(1.0, np.full(domain.ncells, 0.5), exits) and np.allclose(route.cost, 2.0)
 
 
+def test_at_a_door_with_a_capacity_the_walk_is_the_walking_distance():
+    """A capped door's queue is its wait: its potential is the walking distance whatever the density, and people
+    head along the shortest paths to it; a door without a capacity keeps Hughes' potential, which grows with the
+    density (Hughes' cost at capped doors made cases/route-queues diverge under refinement, docs/model.md)."""
+    domain = unit_square(16, exits=["left"])
+    density = 0.9 * domain.centroid[:, 0]
+    for capacity in (None, {"left": 0.2}):
+        exits = Boundary(domain, capacity=capacity).at(0.0)
+        route, free = congestion(domain), ExitsVelocity(domain, Expression("1"))
+        assert route.route(0.0, density, exits)
+        geodesic = free.potential(exits)
+        if capacity is None:
+            assert np.all(route.potential(exits) >= geodesic) and route.potential(exits).max() > 2 * geodesic.max()
+        else:
+            assert np.array_equal(route.potential(exits), geodesic)
+            assert np.array_equal(route.cells(exits), free.cells(exits))
+
+
 def test_the_potential_converges_under_refinement():
     """Cost 1 / f(rho) = 1 + y (f = 1 - rho, rho = y / (1 + y)), exit at the bottom: phi = y + y^2 / 2 exactly;
     the cost is constant per cell, so the error is O(h)."""
