@@ -94,8 +94,9 @@ SCHEMA = {
         "route": Key("shortest", "choice", '"shortest": U along the shortest path to the nearest open exit; '
                      '"congestion": the route sees the crowd: each place heads for the exit of least time, the '
                      'walk (Hughes 2002: a path costs 1 / f(rho) per metre, f the speed law, or 1 - rho with a '
-                     'constant speed) or the wait behind the queue at a door with a capacity (docs/model.md, '
-                     '"Route choice"); for type exits', ("shortest", "congestion")),
+                     'constant speed; to a door with a capacity, the walking distance) or the wait behind the '
+                     'queue at a door with a capacity (docs/model.md, "Route choice"); for type exits',
+                     ("shortest", "congestion")),
         "route_every": Key(1.0, "number", 'with route = "congestion": the routes are re-solved every route_every '
                            "seconds of simulated time and at every door change", low=0, low_open=True),
     },

@@ -151,7 +151,10 @@ class CongestionVelocity(ExitsVelocity):
       on e (Hughes 2002), rho the total density, f the population's speed law (Hughes' linear 1 - rho when the
       speed is constant);
     - at a door with a capacity c_e, the wait W_e = (the crowd heading for e and nearer to it) / (c_e |D_e|):
-      the queue ahead divided by what the door lets through (the variant of docs/model.md, "Route choice").
+      the queue ahead divided by what the door lets through (the variant of docs/model.md, "Route choice"), and
+      phi_e the walking distance (cost 1, solved once): the queue is counted by W_e, and Hughes' cost would count
+      it again, at a speed the jam does not have, with directions that bend around a jam that moves between two
+      routes (docs/model.md, "Route choice": the evacuation time then diverged under refinement).
 
     Each cell heads for the exit of least max(T_e, W_e) (one cannot pass a door before walking there, nor before
     those ahead have passed it), along -grad phi_e; a cell leaves the exit of its last route only for one faster
@@ -166,6 +169,7 @@ class CongestionVelocity(ExitsVelocity):
         self.route_every = float(route_every)
         self.mass = np.zeros(domain.ncells)   # the crowd per cell at the last route
         self.choice = {}                      # per heading: the exit each cell heads for (index into the heading)
+        self.walk = {}                        # per exit with a capacity: the walking distance at the nodes
         self.routes = 0                       # route solves so far
         self.routed = (-np.inf, None)         # time and open exits of the last one
 
@@ -203,7 +207,7 @@ class CongestionVelocity(ExitsVelocity):
             self.choice[heading], self.distance[heading] = np.zeros(len(cells), int), np.full(len(cells), np.inf)
             self._cells[heading] = np.zeros((len(cells), 2))
             return self._cells[heading]
-        phi = np.stack([self.eikonal.solve(self._edges(exits, (name,)), self.cost) for name in heading])
+        phi = np.stack([self._phi(exits, name) for name in heading])
         on_cells = phi[:, self.domain.triangles].mean(axis=2)                    # (exits, cells)
         with np.errstate(divide="ignore", invalid="ignore"):
             walk = np.where(self.speed > 0, on_cells / self.speed, np.inf)
@@ -223,6 +227,15 @@ class CongestionVelocity(ExitsVelocity):
         self.distance[heading] = on_cells[choice, cells]
         self._cells[heading] = self._down(grad)
         return self._cells[heading]
+
+    def _phi(self, exits, name) -> np.ndarray:
+        """phi_e at the nodes: Hughes' potential on the density of the last route, or at a door with a capacity the
+        walking distance (its queue is the wait; computed once)."""
+        if not exits.doors[name].capped:
+            return self.eikonal.solve(self._edges(exits, (name,)), self.cost)
+        if name not in self.walk:
+            self.walk[name] = self.eikonal.solve(self._edges(exits, (name,)))
+        return self.walk[name]
 
     def _waits(self, exits, heading, phi, choice) -> np.ndarray:
         """W_e per cell: the crowd that headed for e at the last route and is nearer to e (smaller phi_e, the cell's
