@@ -74,12 +74,14 @@ def test_radial_errors_decrease_and_the_reference_curves_are_read(tmp_path):
     assert (out / "frontier.png").stat().st_size > 20_000 and "frontier.png" in text
 
 
-def test_dask_gives_the_serial_numbers():
+def test_dask_gives_the_serial_numbers(tmp_path):
+    import dask
     from dask.distributed import LocalCluster
 
     base, exact, tasks = plan_study(CASES / "corridor-wall", 2)
     serial = collect_rows(tasks, execute(run_task, tasks, serial=True))
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=":0") as cluster:
+    with dask.config.set({"temporary-directory": str(tmp_path)}), \
+            LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=":0") as cluster:
         parallel = collect_rows(tasks, execute(run_task, tasks, scheduler=cluster.scheduler_address))
     assert len(serial) == len(parallel) == 2
     for a, b in zip(serial, parallel):
