@@ -28,6 +28,7 @@ def run(case_dir, overrides, out, force, quiet, threads, resume, no_limits):
       femcrowd run cases/narrow-door-micro        (model.type = "micro": discs)
       femcrowd run cases/room --resume            (continue after Ctrl-C)
     """
+    from ..case.units import people_unit
     from ..driver import run as run_case
     from ..driver.limits import LIMITS
     from ..driver.remaining import remaining_text
@@ -43,7 +44,7 @@ def run(case_dir, overrides, out, force, quiet, threads, resume, no_limits):
         click.echo(f"{summary['status']}: {summary['steps']} steps to t = {summary['final_time']:.4g} s "
                    f"in {summary['timing']['wall']:.1f} s; mass error {summary['mass_error']:.1e}; "
                    f"density in [{summary['min_density_ever']:.3g}, {summary['max_density_ever']:.6g}]")
-    click.echo(f"left inside: {remaining_text(summary['remaining'])}")
+    click.echo(f"left inside: {remaining_text(summary['remaining'], people_unit(case.config))}")
     if summary["evacuation_time"] is not None:
         click.echo(f"evacuation time: {summary['evacuation_time']:.4g} s")
     click.echo(f"results: {summary['output_dir']}")

@@ -3,6 +3,7 @@ macro, the mass (the integral of the initial density, in the case's density unit
 saturation); micro, the discs (sampled from the initial density, or read from [micro].positions)."""
 
 from ..case import Case
+from ..case.units import people_unit
 from .macro_model import MacroModel
 from .micro_model import MicroModel
 from .scene import build_scene
@@ -10,7 +11,7 @@ from .scene import build_scene
 
 def initial_people(case: Case) -> dict:
     """{"total": people, "populations": {name: people} (several populations only), "unit": "people" or
-    "rho_max m^2" (a macro case with rho_max = 1, whose densities are fractions of saturation)}."""
+    "m^2 at rho_max" (a macro case whose densities are fractions of saturation, case/units.py)}."""
     micro = case["model"]["type"] == "micro"
     model = (MicroModel if micro else MacroModel)(build_scene(case))
     row, column = model.row(), "count" if micro else "mass"
@@ -18,4 +19,4 @@ def initial_people(case: Case) -> dict:
     number = int if micro else float
     return {"total": number(row[column]),
             "populations": {name: number(row[f"{column}_{name}"]) for name in names} if len(names) > 1 else {},
-            "unit": "people" if micro or case["model"]["rho_max"] != 1 else "rho_max m^2"}
+            "unit": people_unit(case.config)}

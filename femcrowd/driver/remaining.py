@@ -19,6 +19,8 @@ import logging
 
 import numpy as np
 
+from ..case.units import people_unit
+
 log = logging.getLogger("femcrowd")
 
 #: the reasons, by the code remaining() gives each region
@@ -39,6 +41,7 @@ class Regions:
             self.has[self.region[domain.f2t[0][door.facets]], k] = True
         self.fed = {source.key: self.region[domain.f2t[0][source.facets]] for source in scene.sources}
         self.names, self.end, self.file, self.mesh = list(names), case["time"]["end"], case.file, domain.source
+        self.unit = people_unit(case.config)
 
     def _open(self, start: float, stop: float = np.inf) -> np.ndarray:
         """Per region: is one of its exits open at some time in [start, stop)?"""
@@ -57,7 +60,7 @@ class Regions:
             fed = f" and the arrivals of {', '.join(sources)}" if sources else ""
             log.warning("%s: %d of the %d regions of the mesh %s have no exit open during the run (one at (%.4g, "
                         "%.4g)): %s%s can never leave", self.file, np.count_nonzero(trapped), len(trapped),
-                        self.mesh.name if self.mesh else "", x, y, people_text(inside[trapped].sum()), fed)
+                        self.mesh.name if self.mesh else "", x, y, crowd_text(inside[trapped].sum(), self.unit), fed)
 
     def remaining(self, t: float, people: np.ndarray, threshold: float = 0.0) -> dict:
         """The summary entry "remaining" at time t: people (populations, cells + 1; the last column: people
@@ -90,20 +93,24 @@ class Regions:
         if never <= threshold:
             return
         closed = [door.name for k, door in enumerate(self.exits) if self.has[stuck & (inside > 0), k].any()]
-        parts = [f"{people_text(no_exit)} in regions with no exit"] if no_exit else []
+        parts = [f"{crowd_text(no_exit, self.unit)} in regions with no exit"] if no_exit else []
         if closed:
-            parts.append(f"{people_text(never - no_exit)} behind exits closed for good ({', '.join(closed)})")
-        log.warning("%s: %s can never leave (t = %.4g s): %s", self.file, people_text(never), t, "; ".join(parts))
+            parts.append(f"{crowd_text(never - no_exit, self.unit)} behind exits closed for good ({', '.join(closed)})")
+        log.warning("%s: %s can never leave (t = %.4g s): %s", self.file, crowd_text(never, self.unit), t,
+                    "; ".join(parts))
 
 
-def people_text(n: float) -> str:
-    """'1 person', '0 people', '19.2 people' (4 digits)."""
+def crowd_text(n: float, unit: str = "people") -> str:
+    """'1 person', '0 people', '19.2 people' (4 digits), or n in another unit of the crowd ('0.5 m^2 at rho_max',
+    case/units.py)."""
     text = f"{n:.4g}"
+    if unit != "people":
+        return f"{text} {unit}"
     return "1 person" if text == "1" else f"{text} people"
 
 
-def remaining_text(remaining: dict) -> str:
+def remaining_text(remaining: dict, unit: str = "people") -> str:
     """The summary's "remaining" in a few words: '19.2 people (closed door 12.1, time.end 7.1)'."""
     by = remaining["by_reason"]
     why = ", ".join(f"{reason} {value:.4g}" for reason, value in by.items()) if len(by) > 1 else remaining["reason"]
-    return f"{people_text(remaining['people'])} ({why})"
+    return f"{crowd_text(remaining['people'], unit)} ({why})"

@@ -26,13 +26,13 @@ from pathlib import Path
 
 import numpy as np
 
+from ..case.units import counts_people, crowd_unit, density_title
 from ..driver.ownership import reading
 from ..driver.reading import RunDirectory
 from ..errors import InputError
 from ..mesh import Boundary, file_checksum, load_domain
 from .canvas import CMAPS, PRESSURE_TITLE, Canvas, bounds, nice_top, pv
 from .measurements import measurement_plots
-from .units import counts_people, crowd_unit, density_title
 
 log = logging.getLogger("femcrowd.plot")
 

@@ -19,10 +19,10 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch, Polygon
 from matplotlib.tri import Triangulation
 
+from ..case.units import counts_people, crowd_unit, density_title
 from ..driver.populations import disc_populations, initial_densities
 from ..driver.scene import build_scene, initial_discs
 from .canvas import CMAPS, EXIT, FLOOR, OBSTACLE, POPULATION_CMAPS, TEXT, WALL
-from .units import counts_people, crowd_unit, density_title
 
 CLOSED, SOURCE, MEASURE = "#d7301f", "#2b6cb0", "#7b3294"
 

@@ -128,12 +128,12 @@ def without_none(value):
 
 
 @pytest.mark.parametrize("case, people", [
-    ("two-groups", r"people at t = 0: 56.1\d rho_max m\^2 \(north 28.0\d, south 28.0\d\); with model.rho_max = 1"),
+    ("two-groups", r"people at t = 0: 56.1\d m\^2 at rho_max \(north 28.0\d, south 28.0\d\); with model.rho_max = 1"),
     ("bottleneck", r"people at t = 0: 90.04$"),   # rho_max = 5.4: people
     ("entrance", r"people at t = 0: 0; more arrive through \[\[sources\]\]$")])
 def test_info_configuration_is_toml_and_people_are_counted(case, people):
     """The configuration reads back as the case's (populations with keys not set, [exact] not set, lists of
-    tables); two populations of 0.7 on 4 x 10 m each, 28 rho_max m^2; 90.04 people in the bottleneck."""
+    tables); two populations of 0.7 on 4 x 10 m each, 28 m^2 at rho_max; 90.04 people in the bottleneck."""
     result = invoke("info", ROOT / "cases" / case)
     assert result.exit_code == 0, result.output
     assert config_block(result.output) == without_none(load_case(ROOT / "cases" / case).config)

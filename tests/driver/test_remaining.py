@@ -73,7 +73,7 @@ def test_a_room_without_exit(tmp_path, model):
         assert summary["initial_count"] > trapped > 0.3 * summary["initial_count"] and isinstance(trapped, int)
     assert remaining["by_reason"] == {"no reachable exit": pytest.approx(trapped)}
     assert remaining["per_population"] == {"crowd": pytest.approx(trapped)}
-    people = f"{trapped:.4g} people" if trapped != 1 else "1 person"
+    people = f"{trapped:.4g} m^2 at rho_max" if model == "macro" else f"{trapped} people"   # rho_max = 1
     assert ("1 of the 2 regions of the mesh rooms.msh have no exit open during the run (one at (2." in stderr
             and f"{people} can never leave" in stderr), stderr
     assert f"left inside: {people} (no reachable exit)\n" in stdout
@@ -88,7 +88,7 @@ def test_a_door_that_closes_for_good(tmp_path):
     assert remaining["reason"] == "closed door" and summary["evacuated"] < 1e-12
     assert remaining["people"] == pytest.approx(summary["initial_mass"], rel=1e-12)
     assert remaining["people"] == pytest.approx(summary["final_mass"], rel=1e-12)
-    people = f"{remaining['people']:.4g} people"
+    people = f"{remaining['people']:.4g} m^2 at rho_max"   # cases/room: rho_max = 1
     assert f"{people} can never leave (t = 4 s): {people} behind exits closed for good (exit)" in stderr
     assert f"left inside: {people} (closed door)\n" in stdout
 

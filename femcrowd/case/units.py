@@ -1,4 +1,5 @@
-"""The unit of the people in the pictures of a case or run: people, or crowd area at saturation.
+"""The unit of the people of a case or run (pictures, `femcrowd info`, the end of a run): people, or crowd area
+at saturation.
 
 docs/case-format.md: densities are in the unit of `model.rho_max`; with rho_max = 5.4 they are people per
 m^2, with the default rho_max = 1 fractions of saturation, so a mass (density x m^2) is then the area the
@@ -20,3 +21,9 @@ def density_title(people: bool) -> str:
 def crowd_unit(people: bool) -> str:
     """The unit of a number of people (history's mass or count), for axis labels: 'people' or 'm^2 at rho_max'."""
     return "people" if people else "m^2 at rho_max"
+
+
+def people_unit(case: dict) -> str:
+    """The unit of a count of the case's crowd: 'people' (discs, or densities in people per m^2) or
+    'm^2 at rho_max'."""
+    return "people" if case.get("model", {}).get("type") == "micro" or counts_people(case) else crowd_unit(False)
