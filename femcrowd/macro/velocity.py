@@ -170,6 +170,7 @@ class CongestionVelocity(ExitsVelocity):
         self.mass = np.zeros(domain.ncells)   # the crowd per cell at the last route
         self.choice = {}                      # per heading: the exit each cell heads for (index into the heading)
         self.walk = {}                        # per exit with a capacity: the walking distance at the nodes
+        self.hughes = {}                      # per exit without: (cost, Hughes' potential at the nodes), last solve
         self.routes = 0                       # route solves so far
         self.routed = (-np.inf, None)         # time and open exits of the last one
 
@@ -207,7 +208,7 @@ class CongestionVelocity(ExitsVelocity):
             self.choice[heading], self.distance[heading] = np.zeros(len(cells), int), np.full(len(cells), np.inf)
             self._cells[heading] = np.zeros((len(cells), 2))
             return self._cells[heading]
-        phi = np.stack([self._phi(exits, name) for name in heading])
+        phi = self._phi(exits, heading)
         on_cells = phi[:, self.domain.triangles].mean(axis=2)                    # (exits, cells)
         with np.errstate(divide="ignore", invalid="ignore"):
             walk = np.where(self.speed > 0, on_cells / self.speed, np.inf)
@@ -228,14 +229,20 @@ class CongestionVelocity(ExitsVelocity):
         self._cells[heading] = self._down(grad)
         return self._cells[heading]
 
-    def _phi(self, exits, name) -> np.ndarray:
-        """phi_e at the nodes: Hughes' potential on the density of the last route, or at a door with a capacity the
-        walking distance (its queue is the wait; computed once)."""
-        if not exits.doors[name].capped:
-            return self.eikonal.solve(self._edges(exits, (name,)), self.cost)
-        if name not in self.walk:
-            self.walk[name] = self.eikonal.solve(self._edges(exits, (name,)))
-        return self.walk[name]
+    def _phi(self, exits, heading) -> np.ndarray:
+        """(exits, nodes): phi_e of each exit of the heading. Hughes' potential on the density of the last route, the
+        doors without a capacity solved together (Eikonal.solve_each, bit for bit the solves one by one) and only if
+        the cost changed since their last solve (a crowd gone, or that did not move: the same field); at a door with
+        a capacity the walking distance (its queue is the wait; computed once)."""
+        stale = [name for name in heading if not exits.doors[name].capped
+                 and not (name in self.hughes and _same(self.hughes[name][0], self.cost))]
+        if stale:
+            solved = self.eikonal.solve_each([self._edges(exits, (name,)) for name in stale], self.cost)
+            self.hughes.update({name: (self.cost, phi) for name, phi in zip(stale, solved)})
+        for name in heading:
+            if exits.doors[name].capped and name not in self.walk:
+                self.walk[name] = self.eikonal.solve(self._edges(exits, (name,)))
+        return np.stack([self.walk[name] if exits.doors[name].capped else self.hughes[name][1] for name in heading])
 
     def _waits(self, exits, heading, phi, choice) -> np.ndarray:
         """W_e per cell: the crowd that headed for e at the last route and is nearer to e (smaller phi_e, the cell's
@@ -277,6 +284,11 @@ class CongestionVelocity(ExitsVelocity):
         self.cells(exits)
         d = self.distance[self._heading(exits)]
         return np.where(np.isfinite(d), d, -1.0)
+
+
+def _same(cost, other) -> bool:
+    """Are two costs per cell (None: 1 everywhere) the same bit for bit?"""
+    return cost is other or (cost is not None and other is not None and np.array_equal(cost, other))
 
 
 def _mass_ahead(level, low, high, mass) -> np.ndarray:

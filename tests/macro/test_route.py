@@ -48,6 +48,27 @@ def test_at_a_door_with_a_capacity_the_walk_is_the_walking_distance():
             assert np.array_equal(route.cells(exits), free.cells(exits))
 
 
+def test_an_unchanged_cost_is_not_solved_again(monkeypatch):
+    """Two doors without a capacity are solved together; a route whose cost is the one of the last solve bit for bit
+    (a crowd that did not move, or none) reuses the potentials, and they are those of a fresh solve."""
+    domain = unit_square(16, exits=["left", "right"])
+    exits = Boundary(domain).at(0.0)
+    route, calls = congestion(domain), []
+    solve_each = route.eikonal.solve_each
+    monkeypatch.setattr(route.eikonal, "solve_each", lambda edges, cost: calls.append(len(edges)) or
+                        solve_each(edges, cost))
+    density = 0.8 * (domain.centroid[:, 0] > 0.6)
+    route.route(0.0, density, exits)
+    first = route.cells(exits).copy()
+    route.route(1.0, density.copy(), exits)
+    assert calls == [2] and np.array_equal(route.cells(exits), first)
+    route.route(2.0, 0.5 * density, exits)
+    assert calls == [2, 2]
+    for name in ("left", "right"):
+        fresh = congestion(domain).eikonal.solve(route._edges(exits, (name,)), route.cost)
+        assert route.hughes[name][0] is route.cost and np.array_equal(route.hughes[name][1], fresh)
+
+
 def test_the_potential_converges_under_refinement():
     """Cost 1 / f(rho) = 1 + y (f = 1 - rho, rho = y / (1 + y)), exit at the bottom: phi = y + y^2 / 2 exactly;
     the cost is constant per cell, so the error is O(h)."""

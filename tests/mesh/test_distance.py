@@ -287,6 +287,24 @@ def test_two_exits_take_the_nearest():
     assert np.all(both <= np.minimum(dl, dr) + 1e-12)
 
 
+def test_several_exits_solved_together_are_the_solves_one_by_one():
+    """Eikonal.solve_each (the route choice's doors without a capacity, each with its own band) gives the fields of
+    separate solves to the last bit, with a cost that varies per triangle and with an exit cut off from nothing."""
+    p, t, ex = disc_mesh(0.1)
+    left = ex
+    right = edges_where(p, t, lambda x, y: np.abs(x - L) < 1e-9)
+    top = edges_where(p, t, lambda x, y: (np.abs(y - L) < 1e-9) & (x > 1))
+    centroid = p[t].mean(axis=1)
+    cost = 1.0 + 4.0 * np.exp(-4 * ((centroid[:, 0] - 1) ** 2 + centroid[:, 1] ** 2))   # a jam right of the disc
+    solver = distance.Eikonal(p, t)
+    for c in (None, cost):
+        together = solver.solve_each([left, right, top], c)
+        assert together.shape == (3, len(p))
+        for d, edges in zip(together, [left, right, top]):
+            assert np.array_equal(d, distance.Eikonal(p, t).solve(edges, c))
+    assert solver.solve_each([], cost).shape == (0, len(p))
+
+
 def test_cut_off_component_is_inf_without_warnings():
     p1, t1 = grid(0, 1, 0, 1, 8, 8)
     p2, t2 = grid(3, 4, 0, 1, 8, 8, offset=len(p1))
