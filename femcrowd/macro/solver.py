@@ -25,6 +25,7 @@ from ..timer import Stopwatch, Timer
 from .populations import split_correction
 from .projection import CellOrder, PressureFlux, Projection
 from .reconstruction import CellMean, actual_velocity
+from .seen_density import SeenDensity
 from .state import MacroState
 from .transport import TRANSPORTS
 from .transport.lwr import LWRTransport, joint_max_dt
@@ -56,6 +57,7 @@ class MacroSolver:
         speed law of each population (femcrowd.macro.speed_law.SpeedLaw, None or "constant": f = 1)."""
         self.domain, self.boundary, self.velocities = domain, boundary, list(velocities)
         self.routing = [v for v in self.velocities if isinstance(v, CongestionVelocity)]
+        self.seen = SeenDensity(domain) if self.routing else None   # what Hughes' cost sees (routes only)
         self.laws = [None if law is None or law.constant else law for law in (laws or [None] * len(self.velocities))]
         #: False when every population has f(1) = 0: the density stays <= 1 without the projection
         self.needs_projection = any(law is None or law.saturates for law in self.laws)
@@ -117,7 +119,7 @@ class MacroSolver:
         if self.routing:
             with self.timers("route"):   # the route choice, re-solved when it is due
                 for velocity in self.routing:
-                    velocity.route(state.t, state.density, self.boundary.at(state.t))
+                    velocity.route(state.t, state.density, self.boundary.at(state.t), self.seen)
         with self.timers("transport"):   # with the step's set-up and the hooks before it
             exits = self.boundary.at(state.t)
             schemes = self.transports(state, exits)

@@ -148,8 +148,8 @@ class CongestionVelocity(ExitsVelocity):
     """Route choice that sees the crowd. For each open exit e the population heads for:
 
     - the walking time T_e = phi_e / speed, phi_e solving |grad phi_e| = 1 / max(f(rho), ROUTE_FLOOR), phi_e = 0
-      on e (Hughes 2002), rho the total density, f the population's speed law (Hughes' linear 1 - rho when the
-      speed is constant);
+      on e (Hughes 2002), rho the total density people see (the density around them, seen_density.py), f the
+      population's speed law (Hughes' linear 1 - rho when the speed is constant);
     - at a door with a capacity c_e, the wait W_e = (the crowd heading for e and nearer to it) / (c_e |D_e|):
       the queue ahead divided by what the door lets through (the variant of docs/model.md, "Route choice"), and
       phi_e the walking distance (cost 1, solved once): the queue is counted by W_e, and Hughes' cost would count
@@ -174,12 +174,15 @@ class CongestionVelocity(ExitsVelocity):
         self.routes = 0                       # route solves so far
         self.routed = (-np.inf, None)         # time and open exits of the last one
 
-    def route(self, t: float, density: np.ndarray, exits) -> bool:
+    def route(self, t: float, density: np.ndarray, exits, seen=None) -> bool:
         """Re-solve the routes for the total density per cell at time t if it is due (route_every elapsed, or the
-        doors changed); whether it was."""
+        doors changed); whether it was. ``seen``: the density people see from it, for Hughes' cost at doors
+        without a capacity (macro/seen_density.py; None: the density itself, as for the discs, whose density
+        is already the one of a circle of 1 m)."""
         if not self.due(t, exits):
             return False
-        cost = 1.0 / np.maximum(self.f(density), ROUTE_FLOOR)
+        hughes = seen is not None and any(not exits.doors[name].capped for name in self._heading(exits))
+        cost = 1.0 / np.maximum(self.f(seen(density) if hughes else density), ROUTE_FLOOR)
         self.cost = None if np.all(cost == 1.0) else cost
         self.mass = density * self.domain.area
         self._cells.clear()

@@ -8,8 +8,9 @@ import pytest
 from femcrowd import Simulation, load_case
 from femcrowd.case import Expression
 from femcrowd.macro import MacroSolver, MacroState
+from femcrowd.macro.seen_density import SeenDensity
 from femcrowd.macro.speed_law import SpeedLaw
-from femcrowd.macro.velocity import CongestionVelocity, ExitsVelocity
+from femcrowd.macro.velocity import ROUTE_FLOOR, CongestionVelocity, ExitsVelocity
 from femcrowd.mesh import Boundary
 
 from ..support import CASES, unit_square
@@ -67,6 +68,24 @@ def test_an_unchanged_cost_is_not_solved_again(monkeypatch):
     for name in ("left", "right"):
         fresh = congestion(domain).eikonal.solve(route._edges(exits, (name,)), route.cost)
         assert route.hughes[name][0] is route.cost and np.array_equal(route.hughes[name][1], fresh)
+
+
+def test_hughes_cost_sees_the_crowd_around():
+    """With the macro solver's seen density (macro/seen_density.py) a saturated cell costs the cells around it
+    too, and itself less than the jam's 1 / ROUTE_FLOOR; without it (the discs' density, already averaged) the
+    cost is the cell's own."""
+    domain = unit_square(16, exits=["left"])
+    exits = Boundary(domain).at(0.0)
+    centre = int(np.argmin(np.hypot(*(domain.centroid - 0.5).T)))
+    around = np.flatnonzero((np.hypot(*(domain.centroid - domain.centroid[centre]).T) < 0.1))
+    around = around[around != centre]
+    rho = np.zeros(domain.ncells)
+    rho[centre] = 1.0
+    own, seen = congestion(domain), congestion(domain)
+    own.route(0.0, rho, exits)
+    seen.route(0.0, rho, exits, SeenDensity(domain))
+    assert own.cost[centre] == 1 / ROUTE_FLOOR and np.all(own.cost[around] == 1.0)
+    assert 1.0 < seen.cost[centre] < 1 / ROUTE_FLOOR and np.all(seen.cost[around] > 1.0)
 
 
 def test_the_potential_converges_under_refinement():
