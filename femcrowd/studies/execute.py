@@ -49,7 +49,11 @@ def _distributed(function, tasks, scheduler, results, echo):
     import dask
     from dask.distributed import Client, LocalCluster, as_completed
 
-    if not logging.getLogger("femcrowd").isEnabledFor(logging.INFO):   # dask's INFO chatter unless -v
+    # dask's own logs unless -v: the outcome of every run comes back through its future, and what a worker
+    # process logs when the study stops under it (a heartbeat to a scheduler already closed, after Ctrl-C) is
+    # noise with a traceback
+    verbose = logging.getLogger("femcrowd").isEnabledFor(logging.INFO)
+    if not verbose:
         for name in ("distributed", "bokeh", "tornado"):
             logging.getLogger(name).setLevel(logging.ERROR)
     scratch = None
@@ -62,7 +66,8 @@ def _distributed(function, tasks, scheduler, results, echo):
         with _sigint_ignored(), dask.config.set({"temporary-directory": scratch.name}):
             cluster = LocalCluster(n_workers=os.cpu_count() or 1, threads_per_worker=1,
                                    processes=True, dashboard_address=":0",
-                                   silence_logs=logging.ERROR, local_directory=scratch.name)
+                                   silence_logs=logging.ERROR if verbose else logging.CRITICAL + 1,
+                                   local_directory=scratch.name)
         client = Client(cluster)
     try:
         futures = [client.submit(_in_worker(function), task, pure=False, priority=task.level) for task in tasks]

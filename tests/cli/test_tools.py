@@ -110,7 +110,8 @@ def test_info_prints_config_mesh_statistics_and_estimate():
     assert int(steps) == pytest.approx(60 / float(dt), rel=1e-3)
     total, startup, setup, loop = re.search(r"run time of femcrowd run: about ([\d.]+) s \(start-up ([\d.]+) s, "
                                             r"set-up ([\d.e-]+) s, run ([\d.]+) s\)", out).groups()
-    assert float(total) == pytest.approx(float(startup) + float(setup) + float(loop), rel=0.03, abs=0.1)  # 2 digits
+    # the four figures to 2 significant digits, each up to 5 % off (11 s for 11.4): the sum within 10 %
+    assert float(total) == pytest.approx(float(startup) + float(setup) + float(loop), rel=0.1, abs=0.1)
     assert re.search(r"based on (the whole run timed here|\d+ steps to t = [\d.]+ s timed here)", out)
     assert "121 frames" in out
 
