@@ -8,9 +8,9 @@ rho_s solves the screened Poisson (Helmholtz filter) problem
 with the two-point finite-volume Laplacian of the projection (T_e = |e| / d_e across interior facets):
 (|K| + l^2 L) rho_s = |K| rho. Its matrix is an M-matrix whose rows sum to |K|, so rho_s keeps the mass of
 rho and 0 <= rho_s <= max rho, and rho = 0 gives rho_s = 0 (the free-flow limit of the route choice is the
-walking distance, exactly). A person sees the crowd around them, not their cell: Carrillo, Martin, Wolfram
-(2016, M3AS 26, "An improved version of the Hughes model for pedestrian flow") put a convolved density in
-Hughes' cost for the same reason. On the mesh it matters too: with the cell densities themselves the cost
+walking distance, exactly). A person sees the crowd around them, not their cell (people who see the crowd
+near them: Carrillo, Martin, Wolfram 2016, M3AS 26, arXiv:1501.07054, "A local version of the Hughes model
+for pedestrian flow"). On the mesh it matters too: with the cell densities themselves the cost
 jumps from triangle to triangle, the gradients of the potential point into one another, and the
 transport's step and the projection's work grow (docs/performance.md, "Route choice").
 
