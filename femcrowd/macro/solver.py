@@ -57,7 +57,9 @@ class MacroSolver:
         speed law of each population (femcrowd.macro.speed_law.SpeedLaw, None or "constant": f = 1)."""
         self.domain, self.boundary, self.velocities = domain, boundary, list(velocities)
         self.routing = [v for v in self.velocities if isinstance(v, CongestionVelocity)]
-        self.seen = SeenDensity(domain) if self.routing else None   # what Hughes' cost sees (routes only)
+        seen = SeenDensity(domain)   # what Hughes' cost sees (factorised on first use), one for all populations
+        for velocity in self.routing:
+            velocity.seen = seen
         self.laws = [None if law is None or law.constant else law for law in (laws or [None] * len(self.velocities))]
         #: False when every population has f(1) = 0: the density stays <= 1 without the projection
         self.needs_projection = any(law is None or law.saturates for law in self.laws)
@@ -119,7 +121,7 @@ class MacroSolver:
         if self.routing:
             with self.timers("route"):   # the route choice, re-solved when it is due
                 for velocity in self.routing:
-                    velocity.route(state.t, state.density, self.boundary.at(state.t), self.seen)
+                    velocity.route(state.t, state.density, self.boundary.at(state.t))
         with self.timers("transport"):   # with the step's set-up and the hooks before it
             exits = self.boundary.at(state.t)
             schemes = self.transports(state, exits)

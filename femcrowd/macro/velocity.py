@@ -171,18 +171,19 @@ class CongestionVelocity(ExitsVelocity):
         self.choice = {}                      # per heading: the exit each cell heads for (index into the heading)
         self.walk = {}                        # per exit with a capacity: the walking distance at the nodes
         self.hughes = {}                      # per exit without: (cost, Hughes' potential at the nodes), last solve
+        # the density people see, from the density given to route(), for Hughes' cost: the macro solver's
+        # SeenDensity (macro/seen_density.py); None, the density itself, for the discs (already an average over 1 m)
+        self.seen = None
         self.routes = 0                       # route solves so far
         self.routed = (-np.inf, None)         # time and open exits of the last one
 
-    def route(self, t: float, density: np.ndarray, exits, seen=None) -> bool:
+    def route(self, t: float, density: np.ndarray, exits) -> bool:
         """Re-solve the routes for the total density per cell at time t if it is due (route_every elapsed, or the
-        doors changed); whether it was. ``seen``: the density people see from it, for Hughes' cost at doors
-        without a capacity (macro/seen_density.py; None: the density itself, as for the discs, whose density
-        is already the one of a circle of 1 m)."""
+        doors changed); whether it was."""
         if not self.due(t, exits):
             return False
-        hughes = seen is not None and any(not exits.doors[name].capped for name in self._heading(exits))
-        cost = 1.0 / np.maximum(self.f(seen(density) if hughes else density), ROUTE_FLOOR)
+        hughes = self.seen is not None and any(not exits.doors[name].capped for name in self._heading(exits))
+        cost = 1.0 / np.maximum(self.f(self.seen(density) if hughes else density), ROUTE_FLOOR)
         self.cost = None if np.all(cost == 1.0) else cost
         self.mass = density * self.domain.area
         self._cells.clear()

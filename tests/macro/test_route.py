@@ -82,8 +82,9 @@ def test_hughes_cost_sees_the_crowd_around():
     rho = np.zeros(domain.ncells)
     rho[centre] = 1.0
     own, seen = congestion(domain), congestion(domain)
+    seen.seen = SeenDensity(domain)
     own.route(0.0, rho, exits)
-    seen.route(0.0, rho, exits, SeenDensity(domain))
+    seen.route(0.0, rho, exits)
     assert own.cost[centre] == 1 / ROUTE_FLOOR and np.all(own.cost[around] == 1.0)
     assert 1.0 < seen.cost[centre] < 1 / ROUTE_FLOOR and np.all(seen.cost[around] > 1.0)
 
