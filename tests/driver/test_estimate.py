@@ -24,7 +24,9 @@ def test_a_short_run_is_measured_whole():
 
 def test_a_longer_run_is_extrapolated_to_the_crowd_out():
     """cases/narrow-door timed for 0.3 s only: the end is the crowd out, near the run's evacuation time, and the
-    run time within a factor 3 of the run's (the same process, one after the other)."""
+    run time within a factor 5 of the run's (the same process, one after the other; a 0.3 s prefix timed while
+    the suite's other worker runs was 3.3 times a run timed after it: benchmarks/estimate.py checks the factor
+    2 of whole runs)."""
     case = femcrowd.load_case(CASES / "narrow-door")
     e = case_info(case, budget=0.3)["estimate"]
     clock = Stopwatch()
@@ -35,4 +37,4 @@ def test_a_longer_run_is_extrapolated_to_the_crowd_out():
     assert 0.6 * evacuation < e["end_time"] < 1.6 * evacuation
     assert 0.6 < e["steps"] / (len(run.history["time"]) - 1) < 1.6
     assert e["seconds_to_end"] > e["seconds"]   # time.end = 40 s is further
-    assert 1 / 3 < e["seconds"] / wall < 3
+    assert 1 / 5 < e["seconds"] / wall < 5
