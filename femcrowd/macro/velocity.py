@@ -82,7 +82,7 @@ class ExitsVelocity:
         heading = self._heading(exits)
         if heading not in self._cells:
             d = self.distance[heading] = self.eikonal.solve(self._edges(exits, heading), self.cost)
-            grad = _p1_gradient(self.domain, d)
+            grad = self.domain.gradient(d)
             if len(heading) > 1:
                 self._on_ridges(exits, heading, grad)
             self._cells[heading] = self._down(grad)
@@ -111,7 +111,7 @@ class ExitsVelocity:
             own = np.argmin(each[:, t[ridge]].mean(axis=2), axis=0)
         for e in np.unique(own):
             cells = ridge[own == e]
-            grad[cells] = _p1_gradient(self.domain, each[e], cells)
+            grad[cells] = self.domain.gradient(each[e], cells)
 
     def _heading(self, exits) -> tuple:
         """The open exits this population heads for."""
@@ -213,7 +213,7 @@ class CongestionVelocity(ExitsVelocity):
             self._cells[heading] = np.zeros((len(cells), 2))
             return self._cells[heading]
         phi = self._phi(exits, heading)
-        on_cells = phi[:, self.domain.triangles].mean(axis=2)                    # (exits, cells)
+        on_cells = phi.take(self.domain.triangles, axis=1).mean(axis=2)          # (exits, cells)
         with np.errstate(divide="ignore", invalid="ignore"):
             walk = np.where(self.speed > 0, on_cells / self.speed, np.inf)
         # the queues are those of the last route's choices (the first: the nearest exits)
@@ -227,7 +227,8 @@ class CongestionVelocity(ExitsVelocity):
             choice = np.where(time[previous, cells] <= time[choice, cells] + self.route_every, previous, choice)
         grad = np.empty((len(cells), 2))
         for e in np.unique(choice):
-            grad[choice == e] = _p1_gradient(self.domain, phi[e], choice == e)
+            heading_e = np.flatnonzero(choice == e)
+            grad[heading_e] = self.domain.gradient(phi[e], heading_e)
         self.choice[heading] = choice
         self.distance[heading] = on_cells[choice, cells]
         self._cells[heading] = self._down(grad)
@@ -252,8 +253,10 @@ class CongestionVelocity(ExitsVelocity):
         """W_e per cell: the crowd that headed for e at the last route and is nearer to e (smaller phi_e, the cell's
         own crowd left out), over what the door lets through; 0 at doors without a capacity. phi: (exits, nodes);
         choice: the exit each cell heads for."""
-        on_cells = phi[:, self.domain.triangles]                       # (exits, cells, 3)
-        waits = np.zeros(on_cells.shape[:2])
+        waits = np.zeros((len(heading), self.domain.ncells))
+        if not any(exits.doors[name].capped for name in heading):
+            return waits
+        on_cells = phi.take(self.domain.triangles, axis=1)             # (exits, cells, 3)
         for e, name in enumerate(heading):
             door = exits.doors[name]
             if door.capped:
@@ -311,19 +314,3 @@ def _mass_ahead(level, low, high, mass) -> np.ndarray:
     slope, at = np.concatenate([mass / width, -mass / width])[order], at[order]
     below = np.concatenate([[0.0], np.cumsum(np.cumsum(slope)[:-1] * np.diff(at))])
     return np.interp(level, at, below, left=0.0, right=float(mass.sum())) - own
-
-
-def _p1_gradient(domain, d, cells=slice(None)):
-    """Gradient per triangle (of these cells) of the P1 interpolant of nodal values d (inf where any node
-    is inf)."""
-    p, t = domain.points, domain.triangles[cells]
-    e1, e2 = p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]
-    with np.errstate(invalid="ignore"):
-        d1, d2 = d[t[:, 1]] - d[t[:, 0]], d[t[:, 2]] - d[t[:, 0]]
-    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    gx = (d1 * e2[:, 1] - d2 * e1[:, 1]) / det
-    gy = (d2 * e1[:, 0] - d1 * e2[:, 0]) / det
-    bad = ~np.all(np.isfinite(d[t]), axis=1)
-    g = np.column_stack([gx, gy])
-    g[bad] = np.inf
-    return g

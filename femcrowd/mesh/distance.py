@@ -79,6 +79,7 @@ class Eikonal:
             raise ValueError("points contain NaN or inf")
         self.points, self.triangles = p, t
         self._corners = None
+        self._seeds = {}   # per set of exit edges
 
     def solve(self, exit_edges, cost=None) -> np.ndarray:
         """phi at the nodes (np.inf where no exit can be reached) for these exit edges (E, 2) and the cost per
@@ -98,8 +99,8 @@ class Eikonal:
         if self._corners is None:
             self._corners = _Corners(self.points, self.triangles)
         corners = self._corners if len(seeded) == 1 else self._corners.tiled(len(seeded))
-        slowness = None if cost is None else np.tile(np.repeat(cost, 3), len(seeded))
-        return _fim(corners, d, slowness, len(seeded)).reshape(len(seeded), len(self.points))
+        slowness = None if cost is None else np.append(np.tile(np.repeat(cost, 3), len(seeded)), 1.0)
+        return _fim(corners, np.append(d, np.inf), slowness)[:-1].reshape(len(seeded), len(self.points))
 
     def _checked_cost(self, cost):
         if cost is not None:
@@ -109,122 +110,157 @@ class Eikonal:
         return cost
 
     def _seeded(self, exit_edges, cost) -> np.ndarray:
-        """The start of the iteration for these exit edges: 0 on the exits, the seeds around them, inf elsewhere."""
-        p, t = self.points, self.triangles
+        """The start of the iteration for these exit edges: 0 on the exits, the seeds around them, inf elsewhere
+        (their geometry found once per set of exit edges, weighed by each cost)."""
         exits = np.asarray(exit_edges, dtype=np.int64)
         if exits.size == 0:
             exits = exits.reshape(0, 2)
         if exits.ndim != 2 or exits.shape[1] != 2:
             raise ValueError(f"exit_edges must have shape (E, 2), got {exits.shape}")
-        n = len(p)
+        n = len(self.points)
         if exits.size and (exits.min() < 0 or exits.max() >= n):
             raise ValueError(f"exit_edges refer to nodes outside 0..{n - 1}")
+        key = exits.tobytes()
+        if key not in self._seeds:
+            self._seeds[key] = _Seeds(self.points, self.triangles, exits)
+        return self._seeds[key].values(n, cost)
+
+
+class _Seeds:
+    """The exit nodes of a set of exit edges and the straight-line candidates around them (:func:`_seed_candidates`):
+    what the start of the iteration needs, found once."""
+
+    def __init__(self, p, t, exits):
+        self.exit_nodes = np.unique(exits)
+        self.node, self.length, self.triangle = (
+            _seed_candidates(p, t, self.exit_nodes, exits[exits[:, 0] != exits[:, 1]])
+            if len(exits) and len(t) else (np.empty(0, np.int64), np.empty(0), np.empty(0, np.int64)))
+
+    def values(self, n, cost=None) -> np.ndarray:
+        """(n,): 0 on the exit nodes, the least candidate length (times the cost of its triangle) at the nodes
+        around them, inf elsewhere."""
         d = np.full(n, np.inf)
-        if len(exits) == 0:
-            return d
-        exit_nodes = np.unique(exits)
-        d[exit_nodes] = 0.0
-        if len(t) == 0:
-            return d
-        return _seed_values(p, t, d, exit_nodes, exits[exits[:, 0] != exits[:, 1]], cost)
+        d[self.exit_nodes] = 0.0
+        np.minimum.at(d, self.node, self.length if cost is None else self.length * cost[self.triangle])
+        return d
 
 
 class _Corners:
-    """Geometry of the local solver at every corner of every triangle.
+    """Geometry of the local solver at every corner of every triangle, and the corners of each node.
 
     Corner 3 i + k is vertex k (= C) of triangle i; A and B are the next two vertices. The solver
     needs |AB| (as 1/|AB|), |CA|, |CB|, and C in the frame of the edge AB: its abscissa along AB
-    from A (wpar) and its distance to the line AB (wperp).
+    from A (wpar) and its distance to the line AB (wperp): ``geometry`` holds these five rows, a column per
+    corner.
+
+    The corners that update a node (its own, C = node) and those that read it (A or B = node) are
+    rows of two tables padded with a last, empty corner whose nodes are the last node of d (kept at inf
+    by the iteration): an iteration gathers the corners of a set of nodes with one index and takes
+    each node's least value along a row, with no per-corner bookkeeping in Python.
     """
 
     def __init__(self, p, t):
         n, m = len(p), len(t)
-        index_type = np.int32 if max(n, 3 * m) < 2**31 - 1 else np.int64
-        self.C = t.ravel().astype(index_type)
-        self.A = np.roll(t, -1, axis=1).ravel().astype(index_type)
-        self.B = np.roll(t, -2, axis=1).ravel().astype(index_type)
+        self.nodes, self.copies, self.empty = n, 1, 3 * m
+        index_type = np.int32 if max(n + 1, 3 * m + 1) < 2**31 - 1 else np.int64
         x0, x1, x2 = p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
         # edge[:, k] = length of the edge opposite vertex k
         edge = np.stack([np.hypot(*(x2 - x1).T), np.hypot(*(x0 - x2).T), np.hypot(*(x1 - x0).T)], axis=1)
         area2 = np.abs(doubled_areas(p, t))
+        # each array written in place: at 10^6 triangles, stacking copies took longer than the solve
+        self.geometry = np.zeros((5, 3 * m + 1))
+        ca, cb, iL, wpar, wperp = self.geometry[:, :-1]
         L = edge.ravel()  # |AB|: edge opposite C
-        cb = np.roll(edge, -1, axis=1).ravel()  # |CB| is opposite A
-        ca = np.roll(edge, -2, axis=1).ravel()  # |CA| is opposite B
-        with np.errstate(divide="ignore", invalid="ignore"):
-            self.iL = np.where(L > 0, 1.0 / L, 0.0)
-        self.wpar = (ca * ca + L * L - cb * cb) * 0.5 * self.iL
-        self.wperp = np.repeat(area2, 3) * self.iL
-        self.ca, self.cb = ca, cb
+        cb[:] = np.roll(edge, -1, axis=1).ravel()  # |CB| is opposite A
+        ca[:] = np.roll(edge, -2, axis=1).ravel()  # |CA| is opposite B
+        np.divide(1.0, L, out=iL, where=L > 0)
+        wpar[:] = (ca * ca + L * L - cb * cb) * 0.5 * iL
+        wperp[:] = np.repeat(area2, 3) * iL
         self.mean_edge = float(edge.mean()) if m else 0.0
-        corners = np.arange(3 * m, dtype=index_type)
-        # Corners grouped by their node C (a counting sort, in C, through scipy's COO -> CSR).
-        grouped = sp.coo_matrix((corners, (self.C, corners)), shape=(n, 3 * m)).tocsr()
-        self.ptr, self.own = grouped.indptr.astype(np.int64), grouped.indices.astype(index_type)
+        self.C = np.full(3 * m + 1, n, dtype=index_type)
+        self.AB = np.full((2, 3 * m + 1), n, dtype=index_type)
+        self.C[:-1] = t.ravel()
+        self.AB[0, :-1], self.AB[1, :-1] = np.roll(t, -1, axis=1).ravel(), np.roll(t, -2, axis=1).ravel()
+        self.own, self.read = _corner_tables(self.C[:-1], n, index_type)
         self._tiled = {}   # per number of copies: the corners of that many copies of the mesh (solve_each)
 
     def tiled(self, copies: int) -> "_Corners":
-        """The corners of `copies` disjoint copies of the mesh (copy j: nodes j N .. (j + 1) N - 1), the same
-        geometry and mean edge (so the same tolerance and band), built once per number of copies."""
+        """The corners of `copies` disjoint copies of the mesh (copy j: nodes j N .. (j + 1) N - 1, one empty corner
+        and one last node for all), the same geometry and mean edge (so the same tolerance and band), built once per
+        number of copies."""
         if copies not in self._tiled:
-            n, m3 = len(self.ptr) - 1, len(self.C)
-            index_type = np.int32 if max(copies * n, copies * m3) < 2**31 - 1 else np.int64
-            node_shift = (np.arange(copies) * n).astype(index_type)[:, None]
-            corner_shift = (np.arange(copies) * m3).astype(index_type)[:, None]
+            n, m3 = self.nodes, len(self.C) - 1
+            index_type = np.int32 if max(copies * n + 1, copies * m3 + 1) < 2**31 - 1 else np.int64
+
+            def tile(nodes):   # the nodes of the corners of copy 0 (the last corner the empty one) -> all copies
+                shifted = [nodes[..., :-1] + j * n for j in range(copies)]
+                empty = np.full(nodes.shape[:-1] + (1,), copies * n)
+                return np.concatenate(shifted + [empty], axis=-1).astype(index_type)
+
             tiled = object.__new__(_Corners)
-            tiled.C, tiled.A, tiled.B = ((x.astype(index_type)[None] + node_shift).ravel()
-                                         for x in (self.C, self.A, self.B))
-            for name in ("iL", "wpar", "wperp", "ca", "cb"):
-                setattr(tiled, name, np.tile(getattr(self, name), copies))
+            tiled.nodes, tiled.copies, tiled.empty = n, copies, copies * m3
             tiled.mean_edge = self.mean_edge
-            tiled.ptr = np.concatenate([self.ptr[:-1] + j * m3 for j in range(copies)] + [[copies * m3]])
-            tiled.own = (self.own.astype(index_type)[None] + corner_shift).ravel()
+            tiled.C, tiled.AB = tile(self.C), tile(self.AB)
+            tiled.geometry = np.column_stack([np.tile(self.geometry[:, :-1], copies), self.geometry[:, -1:]])
+            tiled.own, tiled.read = (np.concatenate([np.where(table == m3, copies * m3, table + j * m3)
+                                                     for j in range(copies)]).astype(index_type)
+                                     for table in (self.own, self.read))
             tiled._tiled = {}
             self._tiled[copies] = tiled
         return self._tiled[copies]
-
-    def owned(self, nodes):
-        """Corners whose node C is in nodes (the ones that update these nodes)."""
-        return _ranges(self.ptr, self.own, nodes)
-
-    def readers(self, nodes):
-        """Corners that read one of nodes as A or B: the other two corners of each triangle."""
-        c = self.owned(nodes)
-        base = c - c % 3
-        return np.concatenate([base + (c + 1) % 3, base + (c + 2) % 3])
 
     def update(self, d, corners, slowness=None):
         """Value that the corners give to their node C from d at A and B: the P1 Hopf-Lax formula, for a cost
         per unit length `slowness` per corner (None: 1). phi / s solves the unit equation in a triangle of cost
         s, and the formula is positively homogeneous: the value is s times the unit one of dA / s, dB / s."""
-        dA, dB = d[self.A[corners]], d[self.B[corners]]
+        # (take: numpy's fancy indexing with an index of 2 dimensions or rows of 2 is 3 times slower)
+        (dA, dB), geometry = d.take(self.AB.take(corners, axis=1)), self.geometry.take(corners, axis=1)
         if slowness is None:
-            return self.C[corners], self._unit(dA, dB, corners)
-        s = slowness[corners]
-        return self.C[corners], s * self._unit(dA / s, dB / s, corners)
+            return self._unit(dA, dB, geometry)
+        s = slowness.take(corners)
+        return s * self._unit(dA / s, dB / s, geometry)
 
-    def _unit(self, dA, dB, corners):
-        """The unit-cost Hopf-Lax value at the corners' nodes C from the values dA, dB at A and B."""
-        best = np.minimum(dA + self.ca[corners], dB + self.cb[corners])  # through an end point
-        with np.errstate(invalid="ignore", divide="ignore"):
-            iL = self.iL[corners]
-            du = dB - dA
-            c = du * iL  # cosine of the angle between AB and the incoming ray
-            ok = np.abs(c) < 1  # False for inf - inf too
-            sine = np.sqrt(np.where(ok, 1.0 - c * c, 1.0))
-            wperp = self.wperp[corners]
-            s = (self.wpar[corners] - c * wperp / sine) * iL  # where the ray crosses AB, in [0, 1]
-            ok &= (s > 0) & (s < 1)
-            inner = dA + s * du + wperp / sine
+    @staticmethod
+    def _unit(dA, dB, geometry):
+        """The unit-cost Hopf-Lax value at the corners' nodes C from the values dA, dB at A and B (call under
+        np.errstate(invalid="ignore", divide="ignore"): inf - inf at corners that the front has not reached)."""
+        ca, cb, iL, wpar, wperp = geometry
+        best = np.minimum(dA + ca, dB + cb)  # through an end point
+        du = dB - dA
+        c = du * iL  # cosine of the angle between AB and the incoming ray
+        ok = np.abs(c) < 1  # False for inf - inf too
+        sine = np.sqrt(np.where(ok, 1.0 - c * c, 1.0))
+        s = (wpar - c * wperp / sine) * iL  # where the ray crosses AB, in [0, 1]
+        ok &= (s > 0) & (s < 1)
+        inner = dA + s * du + wperp / sine
         return np.where(ok, np.minimum(best, inner), best)
 
 
-def _ranges(ptr, indices, nodes):
-    counts = ptr[nodes + 1] - ptr[nodes]
-    start = np.repeat(ptr[nodes] - np.cumsum(counts) + counts, counts)
-    return indices[start + np.arange(len(start))]
+def _corner_tables(C, n, index_type):
+    """The corners that update each of the n nodes (C = node; corner c is vertex c % 3 of triangle c // 3) and those
+    that read it (the other two corners of the same triangles): tables (n, most such corners of a node) padded with
+    the empty corner, len(C). The corners grouped by node through scipy's CSR -> CSC (a counting sort, in C); the
+    tables filled a column at a time (as many as a node has triangles at most): a loop over columns, not nodes,
+    with temporaries of one column (at 10^6 triangles, whole-table temporaries cost more than the solve)."""
+    empty = len(C)
+    by_node = sp.csr_matrix((np.ones(empty, dtype=bool), C, np.arange(empty + 1, dtype=index_type)),
+                            shape=(empty, n)).tocsc()
+    ptr, corners = by_node.indptr, by_node.indices
+    count = np.diff(ptr)
+    width = count.max(initial=0)
+    own = np.full((n, width), empty, dtype=index_type)
+    read = np.full((n, 2 * width), empty, dtype=index_type)
+    for j in range(width):
+        nodes = np.flatnonzero(count > j)
+        c = corners.take(ptr[nodes] + j).astype(index_type)
+        k = c % 3   # the corner's vertex in its triangle
+        own.reshape(-1)[nodes * width + j] = c
+        read.reshape(-1)[nodes * (2 * width) + j] = c - k + (k + 1) % 3
+        read.reshape(-1)[nodes * (2 * width) + width + j] = c - k + (k + 2) % 3
+    return own, read
 
 
-def _fim(corners, d, slowness=None, copies=1):
+def _fim(corners, d, slowness=None):
     """Fast Iterative Method. Active nodes are relaxed together (Jacobi) until they stop
     decreasing; a node that has converged wakes the neighbours that it would improve.
 
@@ -239,92 +275,95 @@ def _fim(corners, d, slowness=None, copies=1):
     tolerance); with REL_TOL they stop within 2e-7 (band) and 9e-7 (all active nodes) of it,
     for d up to 21.
 
-    ``copies``: d holds that many fields on disjoint copies of the mesh (:meth:`_Corners.tiled`); each copy has
-    its own band, so each field goes through the same iterations as if it were solved alone."""
-    n = len(d)
+    d: the start at the nodes of ``corners.copies`` disjoint copies of the mesh (:meth:`_Corners.tiled`) and inf
+    at one last node (the empty corners'); each copy has its own band, so each field goes through the same
+    iterations as if it were solved alone. slowness: per corner, 1 at the empty one."""
     tol = REL_TOL * corners.mean_edge
     band = BAND * corners.mean_edge
-    mark = np.zeros(n, dtype=bool)
+    mark = np.zeros(len(d), dtype=bool)
     active = np.empty(0, dtype=np.int64)  # the nodes to relax
     done = np.flatnonzero(np.isfinite(d))  # the seeds act as converged nodes
-    while len(done) or len(active):
-        if len(done):
-            target, value = corners.update(d, corners.readers(done), slowness)
-            better = value < d[target] - tol
-            target, value = target[better], value[better]
-            np.minimum.at(d, target, value)
-            mark[target] = True
-            mark[active] = False
-            new = np.flatnonzero(mark)
-            mark[new] = False
-            active = np.concatenate([active, new])
-        if not len(active):
-            break
-        d_active = d[active]
-        if copies == 1:
-            lowest = d_active.min()
-        else:   # the smallest active value of each copy
-            copy = active // (n // copies)
-            lowest = np.full(copies, np.inf)
-            np.minimum.at(lowest, copy, d_active)
-            lowest = lowest[copy]
-        near = d_active <= lowest + band
-        relaxed, waiting, before = active[near], active[~near], d_active[near]
-        target, value = corners.update(d, corners.owned(relaxed), slowness)
-        np.minimum.at(d, target, value)
-        converged = d[relaxed] >= before - tol
-        done = relaxed[converged]
-        active = np.concatenate([relaxed[~converged], waiting])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        while len(done) or len(active):
+            if len(done):
+                readers = corners.read.take(done, axis=0).ravel()
+                readers = readers[readers != corners.empty]
+                target, value = corners.C.take(readers), corners.update(d, readers, slowness)
+                better = value < d.take(target) - tol
+                target, value = target[better], value[better]
+                np.minimum.at(d, target, value)
+                mark[target] = True
+                mark[active] = False
+                new = np.flatnonzero(mark)
+                mark[new] = False
+                active = np.concatenate([active, new])
+            if not len(active):
+                break
+            d_active = d.take(active)
+            if corners.copies == 1:
+                lowest = d_active.min()
+            else:   # the smallest active value of each copy
+                copy = active // corners.nodes
+                lowest = np.full(corners.copies, np.inf)
+                np.minimum.at(lowest, copy, d_active)
+                lowest = lowest[copy]
+            near = d_active <= lowest + band
+            relaxed, waiting, before = active[near], active[~near], d_active[near]
+            after = np.minimum(before, corners.update(d, corners.own.take(relaxed, axis=0), slowness).min(axis=1))
+            d[relaxed] = after
+            converged = after >= before - tol
+            done = relaxed[converged]
+            active = np.concatenate([relaxed[~converged], waiting])
     return d
 
 
 def _seed_values(p, t, d, exit_nodes, exits, cost=None):
-    """Straight-line distance to the exit segments at the nodes of the triangles around each exit
-    node (d is 0 at the exit nodes already). Returns the updated d (upper bounds; the iteration
-    may lower them).
+    """d lowered to the straight-line distance to the exit segments at the nodes of the triangles around each exit
+    node (d is 0 at the exit nodes already; :func:`_seed_candidates`). Returns the updated d (upper bounds; the
+    iteration may lower them)."""
+    node, length, triangle = _seed_candidates(p, t, exit_nodes, exits)
+    np.minimum.at(d, node, length if cost is None else length * cost[triangle])
+    return d
+
+
+def _seed_candidates(p, t, exit_nodes, exits):
+    """The straight paths to the exit segments from the nodes of the triangles around each exit node: (node,
+    length, triangle it lies in) arrays; a node's seed is its least candidate, each weighed by its triangle's cost.
 
     A node w of a triangle at exit node s gets |w - s| (that segment lies in the triangle) and,
     for every exit edge (a, b) at s, its distance to that segment if w lies on a side of the line
     (a, b) where a triangle holding the edge lies, or on the line: near s, the region outside the
-    domain is then a cone on the other side of that line, so the straight path is inside. With a cost
-    per triangle, each length is weighed by the cost of the triangle it was found in.
+    domain is then a cone on the other side of that line, so the straight path is inside.
     """
     n = len(p)
     is_exit = np.zeros(n, dtype=bool)
     is_exit[exit_nodes] = True
     rows_around = np.flatnonzero(is_exit[t].any(axis=1))
     around = t[rows_around]
-    if len(around) == 0:
-        return d
-
-    def weighed(length, rows):
-        return length if cost is None else length * cost[rows_around[rows]]
-
+    candidates = []   # (node, length, row of around)
     for k in range(3):  # point candidates
         at_exit = np.flatnonzero(is_exit[around[:, k]])
         s = around[at_exit, k]
         for j in (1, 2):
             w = around[at_exit, (k + j) % 3]
-            np.minimum.at(d, w, weighed(np.hypot(*(p[w] - p[s]).T), at_exit))
-    if len(exits) == 0:
-        return d
-
-    a, b = exits[:, 0], exits[:, 1]
-    side_pos, side_neg = _edge_sides(p, around, exits)
-    table = _edges_at_nodes(n, exits)
-
-    for k in range(3):  # segment candidates
-        rows_k = np.flatnonzero(is_exit[around[:, k]])
-        for j in range(table.shape[1]):
-            e = table[around[rows_k, k], j]
-            rows, e = rows_k[e >= 0], e[e >= 0]
-            A, B = p[a[e]], p[b[e]]
-            for i in range(3):
-                w = around[rows, i]
-                side = _cross(B - A, p[w] - A)
-                good = (side == 0) | ((side > 0) & side_pos[e]) | ((side < 0) & side_neg[e])
-                np.minimum.at(d, w[good], weighed(_seg_dist(p[w[good]], A[good], B[good]), rows[good]))
-    return d
+            candidates.append((w, np.hypot(*(p[w] - p[s]).T), at_exit))
+    if len(exits) and len(around):
+        a, b = exits[:, 0], exits[:, 1]
+        side_pos, side_neg = _edge_sides(p, around, exits)
+        table = _edges_at_nodes(n, exits)
+        for k in range(3):  # segment candidates
+            rows_k = np.flatnonzero(is_exit[around[:, k]])
+            for j in range(table.shape[1]):
+                e = table[around[rows_k, k], j]
+                rows, e = rows_k[e >= 0], e[e >= 0]
+                A, B = p[a[e]], p[b[e]]
+                for i in range(3):
+                    w = around[rows, i]
+                    side = _cross(B - A, p[w] - A)
+                    good = (side == 0) | ((side > 0) & side_pos[e]) | ((side < 0) & side_neg[e])
+                    candidates.append((w[good], _seg_dist(p[w[good]], A[good], B[good]), rows[good]))
+    node, length, row = (np.concatenate(c) for c in zip(*candidates))
+    return node, length, rows_around[row]
 
 
 def _edge_sides(p, around, exits):

@@ -21,7 +21,7 @@ from ..errors import InputError
 from .checks import regions
 from .gmsh_io import read_mesh
 from .locate import PointLocator
-from .triangles import doubled_areas
+from .triangles import P1Gradient, doubled_areas
 
 #: d_e is clipped from below at this fraction of the centroid distance (see _transmissibility).
 CLIP_FRACTION = 0.02
@@ -72,6 +72,11 @@ class Domain:
     def h(self) -> float:
         """Largest facet length (the mesh size of convergence studies)."""
         return float(self.length.max())
+
+    @cached_property
+    def gradient(self) -> P1Gradient:
+        """The gradient per cell of P1 fields at the nodes: ``domain.gradient(d, cells)``."""
+        return P1Gradient(self.points, self.triangles)
 
     @cached_property
     def region(self) -> np.ndarray:
