@@ -24,10 +24,10 @@ class P1Gradient:
         t, e1, e2, det = ((self.triangles, self.e1, self.e2, self.det) if cells is None else
                           (x.take(cells, axis=0) for x in (self.triangles, self.e1, self.e2, self.det)))
         dt = d.take(t)
-        with np.errstate(invalid="ignore"):
+        with np.errstate(invalid="ignore"):   # inf - inf next to an unreached node: set to inf below
             d1, d2 = dt[:, 1] - dt[:, 0], dt[:, 2] - dt[:, 0]
-        gx = (d1 * e2[:, 1] - d2 * e1[:, 1]) / det
-        gy = (d2 * e1[:, 0] - d1 * e2[:, 0]) / det
+            gx = (d1 * e2[:, 1] - d2 * e1[:, 1]) / det
+            gy = (d2 * e1[:, 0] - d1 * e2[:, 0]) / det
         g = np.column_stack([gx, gy])
         g[~np.all(np.isfinite(dt), axis=1)] = np.inf
         return g

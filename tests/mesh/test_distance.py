@@ -305,6 +305,25 @@ def test_several_exits_solved_together_are_the_solves_one_by_one():
     assert solver.solve_each([], cost).shape == (0, len(p))
 
 
+def test_each_node_updates_from_its_corners_and_wakes_the_corners_that_read_it():
+    """The padded tables of the iteration: the row of node v holds the corners whose node C is v (own) and those
+    whose A or B is v (read), each once, the rest the empty corner; in a tiled copy j the same shifted by j."""
+    p, t, _ = disc_mesh(0.2, algorithm=5, smoothing=0)
+    corners = distance._Corners(p, t)
+    empty = 3 * len(t)
+    C, A, B = t.ravel(), np.roll(t, -1, axis=1).ravel(), np.roll(t, -2, axis=1).ravel()
+    for copies, tables in ((1, corners), (3, corners.tiled(3))):
+        assert tables.own.shape[0] == copies * len(p) and tables.empty == copies * empty
+        for v in range(0, copies * len(p), 7):
+            j, node = divmod(v, len(p))
+            own, read = tables.own[v], tables.read[v]
+            own, read = own[own != copies * empty], read[read != copies * empty]
+            assert sorted(own) == sorted(j * empty + np.flatnonzero(C == node))
+            assert sorted(read) == sorted(j * empty + np.flatnonzero((A == node) | (B == node)))
+            assert np.all(tables.C[own] == v)
+            assert np.all((tables.AB[0, read] == v) | (tables.AB[1, read] == v))
+
+
 def test_cut_off_component_is_inf_without_warnings():
     p1, t1 = grid(0, 1, 0, 1, 8, 8)
     p2, t2 = grid(3, 4, 0, 1, 8, 8, offset=len(p1))
