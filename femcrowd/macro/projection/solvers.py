@@ -10,6 +10,8 @@ rho <= 1 + tol holds whatever the conditioning. Measured choices: docs/performan
 """
 
 
+import signal
+
 import numpy as np
 import pymetis
 
@@ -42,14 +44,35 @@ class CellOrder:
             graph = A[:ncells, :ncells] if node_cell is not None else A.copy()
             graph.setdiag(0.0)
             graph.eliminate_zeros()
-            _, rank = pymetis.nested_dissection(pymetis.CSRAdjacency(graph.indptr, graph.indices))
-            self.rank = np.asarray(rank, np.intp)
+            self.rank = np.asarray(metis_order(graph)[1], np.intp)
         if node_cell is None:
             return self.rank
         key = np.concatenate([2 * self.rank + 1, 2 * self.rank[node_cell]])
         rank = np.empty(len(key), np.intp)
         rank[np.argsort(key, kind="stable")] = np.arange(len(key))
         return rank
+
+
+def metis_order(graph):
+    """METIS's nested dissection of a graph (a CSR matrix's pattern): (permutation, rank).
+
+    METIS traps SIGTERM while it runs (GKlib's error signal is SIGTERM), jumps out of its handler, which leaves
+    the signal blocked in this thread, and returns an error: a kill, or a batch system's time limit, that falls
+    in that window ended a run with "Caught an unknown exception!" instead of at the end of its step
+    (driver/loop.py), and the signal was lost. So after an error the signal mask is restored, the ordering
+    computed again and SIGTERM raised once more, for the handler that was there before METIS's (a METIS error of
+    its own fails again and goes on to the caller)."""
+    adjacency = pymetis.CSRAdjacency(graph.indptr, graph.indices)
+    posix = hasattr(signal, "pthread_sigmask")
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, []) if posix else None
+    try:
+        return pymetis.nested_dissection(adjacency)
+    except RuntimeError:
+        if posix:
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+        ordering = pymetis.nested_dissection(adjacency)
+        signal.raise_signal(signal.SIGTERM)
+        return ordering
 
 
 class SaturatedSolver:
