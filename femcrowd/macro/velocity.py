@@ -227,8 +227,8 @@ class CongestionVelocity(ExitsVelocity):
             choice = np.where(time[previous, cells] <= time[choice, cells] + self.route_every, previous, choice)
         grad = np.empty((len(cells), 2))
         for e in np.unique(choice):
-            heading_e = np.flatnonzero(choice == e)
-            grad[heading_e] = self.domain.gradient(phi[e], heading_e)
+            to_e = np.flatnonzero(choice == e)
+            grad[to_e] = self.domain.gradient(phi[e], to_e)
         self.choice[heading] = choice
         self.distance[heading] = on_cells[choice, cells]
         self._cells[heading] = self._down(grad)

@@ -167,7 +167,7 @@ class _Corners:
         # edge[:, k] = length of the edge opposite vertex k
         edge = np.stack([np.hypot(*(x2 - x1).T), np.hypot(*(x0 - x2).T), np.hypot(*(x1 - x0).T)], axis=1)
         area2 = np.abs(doubled_areas(p, t))
-        # each array written in place: at 10^6 triangles, stacking copies took longer than the solve
+        # each row written in place: copies of arrays this size are slow to touch (docs/performance.md, "Route choice")
         self.geometry = np.zeros((5, 3 * m + 1))
         ca, cb, iL, wpar, wperp = self.geometry[:, :-1]
         L = edge.ravel()  # |AB|: edge opposite C
@@ -213,7 +213,7 @@ class _Corners:
         """Value that the corners give to their node C from d at A and B: the P1 Hopf-Lax formula, for a cost
         per unit length `slowness` per corner (None: 1). phi / s solves the unit equation in a triangle of cost
         s, and the formula is positively homogeneous: the value is s times the unit one of dA / s, dB / s."""
-        # (take: numpy's fancy indexing with an index of 2 dimensions or rows of 2 is 3 times slower)
+        # take, not fancy indexing, which is slower with an index of 2 dimensions or for rows (docs/performance.md)
         (dA, dB), geometry = d.take(self.AB.take(corners, axis=1)), self.geometry.take(corners, axis=1)
         if slowness is None:
             return self._unit(dA, dB, geometry)
@@ -241,7 +241,7 @@ def _corner_tables(C, n, index_type):
     that read it (the other two corners of the same triangles): tables (n, most such corners of a node) padded with
     the empty corner, len(C). The corners grouped by node through scipy's CSR -> CSC (a counting sort, in C); the
     tables filled a column at a time (as many as a node has triangles at most): a loop over columns, not nodes,
-    with temporaries of one column (at 10^6 triangles, whole-table temporaries cost more than the solve)."""
+    with temporaries of one column, not of the whole tables (docs/performance.md, "Route choice")."""
     empty = len(C)
     by_node = sp.csr_matrix((np.ones(empty, dtype=bool), C, np.arange(empty + 1, dtype=index_type)),
                             shape=(empty, n)).tocsc()
