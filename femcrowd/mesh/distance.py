@@ -173,7 +173,8 @@ class _Corners:
         L = edge.ravel()  # |AB|: edge opposite C
         cb[:] = np.roll(edge, -1, axis=1).ravel()  # |CB| is opposite A
         ca[:] = np.roll(edge, -2, axis=1).ravel()  # |CA| is opposite B
-        np.divide(1.0, L, out=iL, where=L > 0)
+        with np.errstate(divide="ignore"):
+            iL[:] = np.where(L > 0, 1.0 / L, 0.0)
         wpar[:] = (ca * ca + L * L - cb * cb) * 0.5 * iL
         wperp[:] = np.repeat(area2, 3) * iL
         self.mean_edge = float(edge.mean()) if m else 0.0
