@@ -152,7 +152,8 @@ class MicroModel:
             with self.timers("measurements"):
                 self.measurements.record(before, ids, sim, info)
         if self.trajectories is not None:
-            self.trajectories.step(sim.t, info.dt, info.ids, info.q, info.u)
+            with self.timers("trajectories"):
+                self.trajectories.step(sim.t, info.dt, info.ids, info.q, info.u)
         self.last = info
         self.evacuation.after_step(sim.t, info.count, 0)
         return info
