@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from .. import registry
 from ..errors import InputError
 from ..expressions import Expression, ExpressionError
+from ..profiles import table_error
 
 REQUIRED = object()
 FIELDS = ("density", "pressure", "velocity")
@@ -161,8 +162,15 @@ SCHEMA = {
     "sources": Key([], "table_array", "people arriving through a boundary group that is not an exit ([[sources]])",
                    items={
                        "boundary": Key(REQUIRED, "str", "the physical line group they enter through"),
-                       "flow": Key(REQUIRED, "number", "persons per metre of the group per second (density unit "
-                                   "x m/s); what cannot enter waits outside (history column queued)", low=0),
+                       "flow": Key(None, "profile", "persons per metre of the group per second (density unit "
+                                   "x m/s): a number, an expression in t, or a table [[t, flow], ...] (linear between "
+                                   "its points, 0 outside them); what cannot enter waits outside (history column "
+                                   "queued); exactly one of flow, rate, people"),
+                       "rate": Key(None, "profile", "persons per second through the whole group, as flow is per "
+                                   "metre: a number, an expression in t or a table [[t, rate], ...] (a timetable); "
+                                   "discs per second in the micro model"),
+                       "people": Key(None, "number", "persons arriving at an even rate over [start, end] (discs "
+                                     "in the micro model)", low=0, low_open=True),
                        "start": Key(0.0, "number", "when they start arriving (s)", low=0),
                        "end": Key(None, "number", "when they stop arriving (s; default: time.end)", low=0),
                        "population": Key(None, "str", "the population they join (default: the first)"),
@@ -358,6 +366,26 @@ def _schedules(spec, value):
     return {name: [[float(a), float(b)] for a, b in spans] for name, spans in value.items()}
 
 
+def _profile(spec, value):
+    """A flow over time (femcrowd.profiles): a number >= 0, an expression in t, or a table of [t, value] pairs."""
+    if isinstance(value, list):
+        error = table_error(value)
+        if error:
+            raise Refused(error)
+        return value
+    if isinstance(value, str):
+        try:
+            Expression(value, ("t",))
+        except ExpressionError as err:
+            raise Refused(str(err)) from None
+        return value
+    if not is_number(value) or not math.isfinite(value):
+        raise Refused("expected a number, an expression in t or a table [[t, value], ...]")
+    if value < 0:
+        raise Refused("must be in [0, inf]: a flow is >= 0")
+    return value
+
+
 def _tables(spec, value):
     if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
         raise Refused("expected an array of tables")
@@ -368,7 +396,8 @@ def _tables(spec, value):
 CHECKERS = {"str": _string, "bool": _boolean, "choice": _choice, "number": _number, "int": _number,
             "expr": _expression, "strlist": _strings, "fields": _fields, "regions": _regions, "law": _law,
             "exact": _exact, "radius": _radius, "name": _name, "point": _point_value, "polygon": _polygon,
-            "capacities": _capacities, "schedules": _schedules, "table_array": _tables}
+            "capacities": _capacities, "schedules": _schedules, "table_array": _tables,
+            "profile": _profile}
 
 
 def _point(value) -> bool:

@@ -1,10 +1,12 @@
-"""Inflow sources (``[[sources]]``): people arriving through a boundary group at a given flow per metre.
+"""Inflow sources (``[[sources]]``): people arriving through a boundary group at a flow per metre, a rate for the
+whole group (each a number, an expression of t or a table: femcrowd/profiles.py) or a number of people.
 
 The sources of a case are read and checked here (the group exists, is a boundary group, not an exit), and
 turned into what each model does with them: the mass that enters the density (macro/inflow.py) and the discs
 that enter through slots behind the entrance (micro/arrivals.py).
 """
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -15,19 +17,42 @@ from ..macro.inflow import Inflow
 from ..mesh import Domain
 from ..micro.arrivals import Arrivals
 from ..micro.sampling import HEX_PACKING
+from ..profiles import Profile
 
 
 @dataclass
 class Source:
-    """One [[sources]] table on the mesh: its facets (boundary facets of the group), their cells and lengths."""
+    """One [[sources]] table on the mesh: its facets (boundary facets of the group) and their total length
+    `width`; its arrivals g(t) = `profile` over [start, end], per metre of the group (flow) or, if `counted`, for
+    the whole group (rate, people: persons per second)."""
 
     key: str
     boundary: str
-    flow: float
+    profile: Profile
+    counted: bool
     start: float
     end: float
     population: str | None
     facets: np.ndarray
+    width: float
+    people: float | None = None
+
+    @property
+    def per_metre(self) -> float:
+        """The level of the flow per metre (persons/(m s) x the profile's shape)."""
+        return self.profile.level / self.width if self.counted else self.profile.level
+
+    def label(self, unit: str) -> str:
+        """What arrives, for pictures: "0.5 persons/(m s)" (unit: of a flow per metre), "2 persons/s",
+        "200 persons", "flow = 1 + sin(t)", "rate: a table of 4 points"."""
+        if self.people is not None:
+            return f"{self.people:g} persons"
+        what, value = ("rate", self.profile.value) if self.counted else ("flow", self.profile.value)
+        if isinstance(value, list):
+            return f"{what}: a table of {len(value)} points"
+        if isinstance(value, str):
+            return f"{what} = {value}"
+        return f"{value:g} persons/s" if self.counted else f"{value:g} {unit}/(m s)"
 
 
 def read_sources(case: Case, domain: Domain) -> list:
@@ -44,10 +69,25 @@ def read_sources(case: Case, domain: Domain) -> list:
         facets = domain.groups[name]
         if not len(facets) or domain.interior[facets].any():
             raise InputError(case.file, f"{key}.boundary", name, "must be made of boundary edges")
-        end = case["time"]["end"] if spec["end"] is None else spec["end"]
+        given = [k for k in ("flow", "rate", "people") if spec[k] is not None]
+        if not given:
+            raise InputError(case.file, f"{key}.flow", None, "missing required key: give one of flow "
+                             "(persons/(m s)), rate (persons/s) and people (a number of persons)")
+        if len(given) > 1:
+            raise InputError(case.file, key, {k: spec[k] for k in given}, "give only one of flow (persons/(m s)), "
+                             "rate (persons/s) and people (a number of persons)")
+        what = given[0]
+        profile = None if what == "people" else Profile(spec[what], (case.file, f"{key}.{what}"))
+        last = math.inf if profile is None else profile.last   # a table's arrivals end with it
+        end = min(case["time"]["end"], last) if spec["end"] is None else spec["end"]
         if end <= spec["start"]:
-            raise InputError(case.file, f"{key}.end", end, f"must be after start = {spec['start']:g}")
-        sources.append(Source(key, name, spec["flow"], spec["start"], end, spec["population"], np.asarray(facets)))
+            raise InputError(case.file, f"{key}.end", end, f"must be after start = {spec['start']:g}"
+                             + (" (the table's last time when end is not given)" if spec["end"] is None else ""))
+        if profile is None:
+            profile = Profile(spec["people"] / (end - spec["start"]))
+        profile.check(spec["start"], end)
+        sources.append(Source(key, name, profile, what != "flow", spec["start"], end, spec["population"],
+                              np.asarray(facets), float(domain.length[facets].sum()), spec["people"]))
     return sources
 
 
@@ -66,18 +106,20 @@ def macro_inflow(case: Case, sources, domain: Domain, populations) -> Inflow:
     rho_max = case["model"]["rho_max"]
     facets = np.concatenate([s.facets for s in sources])
     owner = np.concatenate([np.full(len(s.facets), k) for k, s in enumerate(sources)])
-    rate = np.concatenate([s.flow / rho_max * domain.length[s.facets] for s in sources])
+    rate = np.concatenate([s.per_metre / rho_max * domain.length[s.facets] for s in sources])
     population = np.array([population_index(case, s, populations) for s in sources])[owner]
-    return Inflow(domain, facets, owner, rate, population, [(s.start, s.end) for s in sources], len(populations))
+    return Inflow(domain, facets, owner, rate, population, [s.profile for s in sources],
+                  [(s.start, s.end) for s in sources], len(populations))
 
 
 def micro_arrivals(case: Case, sources, domain: Domain, radius, walls, seed: int = 1, populations=("crowd",)):
     """The discs that the sources bring into a micro run (micro/arrivals.py). A flow g (density unit x m/s) is
     g / rho_max x packing / (pi E[r^2]) discs per metre per second, the conversion of the initial sampling
-    (saturation rho_max = the hexagonal packing)."""
+    (saturation rho_max = the hexagonal packing); a rate and a number of people count discs (one a person)."""
     lo, hi = (radius, radius) if np.isscalar(radius) else radius
     per_metre = HEX_PACKING / (np.pi * (lo * lo + lo * hi + hi * hi) / 3.0) / case["model"]["rho_max"]
-    return Arrivals(domain, [s.facets for s in sources], [s.flow * per_metre * domain.length[s.facets].sum()
-                                                           for s in sources],
+    rates = [s.profile.level if s.counted else s.profile.level * per_metre * domain.length[s.facets].sum()
+             for s in sources]
+    return Arrivals(domain, [s.facets for s in sources], rates, [s.profile for s in sources],
                     [population_index(case, s, populations) for s in sources], [(s.start, s.end) for s in sources],
                     radius, walls, seed)

@@ -1,8 +1,9 @@
 """People arriving through boundary facets (``[[sources]]``, docs/scenes.md): the mass that enters the density,
 a hook of MacroSolver before each prediction.
 
-Each source facet e brings rate_e |[t, t + dt] & [start, end]| into its queue during a step (rate_e = flow x
-|e|, in units of rho_max x m^2 per second). What fits enters the cell K behind e, up to its room
+Each source facet e brings rate_e x the integral of the source's g(t) / level over [t, t + dt] & [start, end] into
+its queue during a step (rate_e = level x |e| per metre, in units of rho_max x m^2 per second; femcrowd/profiles.py;
+a constant flow: rate_e |[t, t + dt] & [start, end]|). What fits enters the cell K behind e, up to its room
 |K| (1 - rho_K) shared in proportion to the queues of the facets of K; the rest waits outside and enters at
 a later step. Hence, per step and exactly, arrived = inflow + queued, and
 mass(t) + evacuated(t) = mass(0) + inflow(t).
@@ -10,16 +11,18 @@ mass(t) + evacuated(t) = mass(0) + inflow(t).
 
 import numpy as np
 
+from ..profiles import amounts
+
 
 class Inflow:
-    """The before_step hook of a macro run's sources: each source facet's cell, rate (mass per second) and
-    population, the span [start, end] of each source (``owner``: the source of each facet); inflow and queued in
-    units of rho_max x m^2."""
+    """The before_step hook of a macro run's sources: each source facet's cell, rate (mass per second at the
+    level of its profile) and population, the profile (femcrowd/profiles.py) and span [start, end] of each source
+    (``owner``: the source of each facet); inflow and queued in units of rho_max x m^2."""
 
-    def __init__(self, domain, facets, owner, rate, population, spans, populations: int):
+    def __init__(self, domain, facets, owner, rate, population, profiles, spans, populations: int):
         self.domain = domain
         self.cells = domain.f2t[0][facets]
-        self.owner, self.rate, self.population = owner, rate, population
+        self.owner, self.rate, self.population, self.profiles = owner, rate, population, profiles
         self.start, self.end = np.asarray(spans, float).reshape(-1, 2).T
         self.target = population * domain.ncells + self.cells   # flat index into rho (populations, cells)
         self.queue = np.zeros(len(facets))
@@ -27,8 +30,7 @@ class Inflow:
 
     def __call__(self, solver, state, dt: float) -> None:
         """Add what arrives during [t, t + dt] and fits to state.rho; the rest stays queued."""
-        windows = np.maximum(0.0, np.minimum(state.t + dt, self.end) - np.maximum(state.t, self.start))
-        self.queue += self.rate * windows[self.owner]
+        self.queue += self.rate * amounts(self.profiles, self.start, self.end, state.t, dt)[self.owner]
         if not self.queue.any():
             return
         n = self.domain.ncells

@@ -6,17 +6,18 @@ import json
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ..profiles import amounts
 from .contacts import WallSet
 
 
 class Arrivals:
-    """The discs that enter a micro run: per source its facets, its rate (discs per second), its population
-    index and its span [start, end]; discs of radius `radius` (or drawn in [min, max]); `walls` the segments
+    """The discs that enter a micro run: per source its facets, its rate (discs per second at the level of its
+    profile, femcrowd/profiles.py), its profile, its population index and its span [start, end]; discs of radius `radius` (or drawn in [min, max]); `walls` the segments
     the slots must clear; drawn from default_rng(seed)."""
 
-    def __init__(self, domain, facets, rates, populations, spans, radius, walls, seed: int = 1):
+    def __init__(self, domain, facets, rates, profiles, populations, spans, radius, walls, seed: int = 1):
         lo, hi = (radius, radius) if np.isscalar(radius) else radius
-        self.populations, self.rate = list(populations), list(rates)
+        self.populations, self.rate, self.profiles = list(populations), np.asarray(rates, float), profiles
         self.start, self.end = np.asarray(spans, float).reshape(-1, 2).T
         self.r = float(hi)   # slots fit the largest disc; arrivals get radii drawn like the initial ones
         self.radius = (float(lo), float(hi))
@@ -48,8 +49,7 @@ class Arrivals:
     def __call__(self, t: float, dt: float, q: np.ndarray, r: np.ndarray):
         """Centres, radii and population indices of the discs that enter during [t, t + dt] next to the
         discs (q, r)."""
-        windows = [max(0.0, min(t + dt, end) - max(t, start)) for start, end in zip(self.start, self.end)]
-        self.pending += [rate * w for rate, w in zip(self.rate, windows)]
+        self.pending += self.rate * amounts(self.profiles, self.start, self.end, t, dt)
         wanted = np.floor(self.pending + 1e-9).astype(int)
         if not wanted.any():
             return np.zeros((0, 2)), np.zeros(0), np.zeros(0, int)

@@ -123,7 +123,7 @@ def scene_figure(case):
     for source in scene.sources:
         f = source.facets
         ax.add_collection(LineCollection(_segments(domain, f), colors=SOURCE, linewidths=4, zorder=5))
-        _label(ax, f"{source.boundary}: source {source.flow:g} {'persons' if people else 'rho_max'}/(m s), "
+        _label(ax, f"{source.boundary}: source {source.label('persons' if people else 'rho_max')}, "
                    f"{_span(source.start, source.end)}", domain.midpoint[f].mean(axis=0),
                domain.normal[f].mean(axis=0), SOURCE, size)
     if scene.sources:
