@@ -1,16 +1,26 @@
-"""``femcrowd new``: a commented case.toml for a mesh: the keys a new case sets, at their defaults (from the
-SCHEMA) and the commented-out options beside them; exits = the mesh's boundary groups not named wall* nor
-entrance* (interior line groups are offered a capacity); a group named entrance* (mesh/plan.py is_entrance)
-becomes a ``[[sources]]`` entry; a mesh without an exit gets the desired velocity U = 0 to edit (not a
-direction made up for it). Every other key is in the case-format documentation."""
+"""``femcrowd new``: a commented case.toml for a mesh: the keys a new case sets and the commented-out options
+beside them; exits = the mesh's boundary groups not named wall* nor entrance*; a group named entrance*
+(mesh/plan.py is_entrance) becomes a ``[[sources]]`` entry; a mesh without an exit gets the desired velocity
+U = 0 to edit (not a direction made up for it). Every other key is in the case-format documentation.
+
+Two models (MODELS): "recommended", the settings of docs/validation.md (femcrowd/studies/recommended.py:
+rho_max 5.4 persons/m^2, Weidmann's law at 1.34 m/s with its push, the door capacity on every exit and
+interior line group, by name); "paper", the model of Maury et al. (2010) at the SCHEMA's defaults (rho_max 1,
+constant speed, free exits), the capacities offered as a comment."""
 
 import math
 import os
 from pathlib import Path
 
 from ..errors import InputError
+from ..studies.recommended import DOOR_CAPACITY, FLUCTUATION, PUSH
 from .loading import toml_value
 from .schema import SCHEMA
+
+#: the models `femcrowd new --model` writes: the recommended settings (the default) or the paper's model
+MODELS = ("recommended", "paper")
+#: the recommended free walking speed (m/s, Weidmann 1993) and the initial density written (persons/m^2)
+SPEED, DENSITY = 1.34, 2.0
 
 
 def _default(section, key):
@@ -42,11 +52,14 @@ def door_groups(domain):
     return exits, entrances, inside
 
 
-def write_new_case(file: Path, mesh_file, domain) -> None:
-    """Write the case file ``file`` for the mesh ``mesh_file`` (its Domain ``domain``)."""
+def write_new_case(file: Path, mesh_file, domain, model: str = "recommended") -> None:
+    """Write the case file ``file`` for the mesh ``mesh_file`` (its Domain ``domain``), with the settings of
+    ``model`` (one of MODELS)."""
     case_dir, mesh_file = file.parent, Path(mesh_file)
-    text = "".join((f"{line[0]:<30}  # {line[1]}" if isinstance(line, tuple) else line) + "\n"
-                   for line in _case_lines(case_dir, mesh_file, domain))
+    lines = _case_lines(case_dir, mesh_file, domain)
+    if model == "recommended":
+        lines = _recommended(lines, domain)
+    text = "".join((f"{line[0]:<30}  # {line[1]}" if isinstance(line, tuple) else line) + "\n" for line in lines)
     case_dir.mkdir(parents=True, exist_ok=True)
     file.write_text(text)
 
@@ -110,3 +123,44 @@ def _case_lines(case_dir, mesh_file, domain) -> list:
         (f'# radius = {_default("micro", "radius")}', "m, or [min, max] for a polydisperse crowd"),
         f'# seed = {_default("micro", "seed")}',
     ]
+
+
+def _recommended(lines: list, domain) -> list:
+    """The paper's lines with the recommended settings (studies/recommended.py) in place of the paper's: each
+    line that changes is found by its key, and replaced by the lines of CHANGED."""
+    exits, _, inside = door_groups(domain)
+    area = domain.area.sum()
+    width = sum(domain.length[domain.groups[name]].sum() for name in exits)
+    changed = {
+        "rho_max": [("rho_max = 5.4", "persons/m^2 (Weidmann 1993); the paper's model: rho_max = 1.0")],
+        "speed": [(f"speed = {SPEED}", "m/s, Weidmann's free speed: number or expression in x, y"),
+                  ('speed_law = "weidmann"', "slower in a dense crowd (Weidmann 1993)"),
+                  (f"push = {PUSH}", "a jam still pushes at push x speed (docs/validation.md)")],
+        "# speed_law": [], "# push": [],
+        "density": [(f"density = {DENSITY}", f"persons/m^2 ({DENSITY * area:.0f} people): number or expression "
+                     'in x, y, e.g. "2.0 * (x < 4)"')],
+        "flow": [("flow = 0.5", "persons per metre per second (or rate, persons/s; or people)")],
+        "# seed": [lines[_index(lines, "# seed")], ('# strategy = "decelerate"', "the recommended discs "
+                                                     "(docs/validation.md)"), f"# fluctuation = {FLUCTUATION}"],
+    }
+    if exits or inside:
+        changed["# capacity"] = [(f"capacity = {toml_value({name: DOOR_CAPACITY for name in exits + inside})}",
+                                  "persons/(m s) each door (exit or interior line) lets through at most")]
+    if width:   # the run ends after the walk and the drain of the crowd through the exits at their capacity
+        walk = lines[_index(lines, "end")]
+        end = 10.0 * math.ceil((float(walk[0].split("=")[1]) + DENSITY * area / (DOOR_CAPACITY * width)) / 10.0)
+        changed["end"] = [(f"end = {end:g}.0", f"{walk[1]}; the crowd through the exits at their capacity")]
+    out = [lines[0], "# The recommended settings of docs/validation.md (the paper's model: --model paper)."]
+    for line in lines[1:]:
+        out += changed.get(_key(line), [line])
+    return out
+
+
+def _key(line) -> str:
+    """The key a line sets (commented out: with its "# "), or the line."""
+    return (line[0] if isinstance(line, tuple) else line).split(" =")[0]
+
+
+def _index(lines, key: str) -> int:
+    """The index of the line that sets `key`."""
+    return next(i for i, line in enumerate(lines) if _key(line) == key)

@@ -154,13 +154,20 @@ def mesh(geometry, out, exit_size, size, units, wall_thickness, walls_layer, obs
 @main.command()
 @click.argument("case_dir", type=click.Path())
 @click.option("--mesh", "mesh_file", required=True, type=click.Path(), help="The gmsh .msh file of the scene.")
-def new(case_dir, mesh_file):
+@click.option("--model", type=click.Choice(["recommended", "paper"]), default="recommended", show_default=True,
+              help="recommended: the settings of docs/validation.md (rho_max 5.4 persons/m^2, Weidmann's law, "
+                   "push 0.2, capacity 1.9 persons/(m s) on every door); paper: the model of Maury et al. (rho_max "
+                   "1, constant speed, free exits).")
+def new(case_dir, mesh_file, model):
     """Write a commented CASE_DIR/case.toml for the mesh FILE.msh.
 
     Exits are the mesh's boundary groups not named wall* nor entrance*; a
     group named entrance* becomes a [[sources]] entry (people arriving); a
-    mesh without an exit gets U = 0 to edit. Every other key is the default,
-    with a comment. An existing case.toml is never overwritten.
+    mesh without an exit gets U = 0 to edit. The settings are the
+    recommended ones (every exit and interior line group gets the door
+    capacity, by its name), or the paper's with --model paper; every other
+    key is the default, with a comment. An existing case.toml is never
+    overwritten.
 
     \b
     Example:
@@ -172,7 +179,7 @@ def new(case_dir, mesh_file):
 
     file = new_case_file(case_dir)
     domain = load_domain(mesh_file, (), 0, case_file=file)
-    write_new_case(file, mesh_file, domain)
+    write_new_case(file, mesh_file, domain, model)
     exits, entrances, _ = door_groups(domain)
     click.echo(f"wrote {file}; exits {', '.join(exits) or 'none'}; entrances {', '.join(entrances) or 'none'}")
     if not exits:

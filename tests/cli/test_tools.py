@@ -54,7 +54,7 @@ def test_mesh_new_and_run_a_floor_plan(tmp_path):
     assert f"{mesh.t.shape[1]} triangles" in result.output
 
     case_dir = tmp_path / "case"
-    result = invoke("new", case_dir, "--mesh", msh)
+    result = invoke("new", case_dir, "--mesh", msh, "--model", "paper")   # rho_max 1: exact solution 3 below
     assert result.exit_code == 0, result.output
     case = load_case(case_dir)
     assert case["mesh"]["file"] == "../meshes/plan.msh"  # relative to the case directory
