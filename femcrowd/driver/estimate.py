@@ -104,8 +104,8 @@ def _crowd(scene, model, t: float) -> tuple:
             times = np.linspace(start, source.end, 21)
             walk = distance[domain.f2t[0][source.facets]].mean() / max(speed.max(), 1e-300)
             ready.append((times[:-1] + times[1:]) / 2 + walk)
-            rate = source.flow / scene.case["model"]["rho_max"] * domain.length[source.facets].sum()
-            mass.append(np.full(20, rate * (source.end - start) / 20))
+            rate = source.per_metre / scene.case["model"]["rho_max"] * source.width
+            mass.append(np.array([rate * source.profile.amount(a, b) for a, b in zip(times[:-1], times[1:])]))
     ready, mass = np.concatenate(ready), np.concatenate(mass)
     flux = max(float(p.law.flux(p.law.r_star)) for p in scene.populations)
     walking = float(np.median(speed[speed > 0])) if (speed > 0).any() else 0.0
