@@ -54,6 +54,8 @@ PUSH_DOC = ("people in a jam still push at push x speed: the speed law's f never
 POPULATION = {
     "density": Key(0.0, "expr", "this population's initial density in [0, rho_max]: a number or an expression "
                    "in x, y; the populations' densities sum to at most rho_max"),
+    "people": Key(None, "number", "this population's number of persons: its density (uniform if 0) is then only "
+                  "a shape, scaled to hold them (discs in the micro model)", low=0, low_open=True),
     "exits": Key(None, "strlist", "for velocity type exits: the exits this population heads for (default: all)"),
     "type": Key(None, "choice", "overrides velocity.type for this population", ("exits", "field")),
     "speed": Key(None, "expr", "overrides velocity.speed for this population"),
@@ -107,6 +109,10 @@ SCHEMA = {
     "initial": {
         "density": Key(0.0, "expr", "initial density in [0, rho_max]: a number or an expression in x, y"),
         "regions": Key({}, "regions", "initial density per physical surface group, e.g. { crowd = 0.9 }"),
+        "people": Key(None, "number", "the number of persons at t = 0: the initial density (uniform if it is 0 "
+                      "everywhere) is then only a shape, scaled to hold them; refused if they cannot fit under "
+                      "rho_max (persons/m^2); discs in the micro model (instead of micro.count)", low=0,
+                      low_open=True),
     },
     "time": {
         "end": Key(10.0, "number", "end time (s)", low=0, low_open=True),
@@ -134,8 +140,8 @@ SCHEMA = {
     },
     "micro": {
         "radius": Key(0.2, "radius", "disc radius (m), or [min, max] for a polydisperse crowd"),
-        "count": Key(None, "int", "number of discs (default: from the initial density at the hexagonal "
-                     "packing density)", low=1),
+        "count": Key(None, "int", "number of discs (default: initial.people, else from the initial density at "
+                     "the hexagonal packing density)", low=1),
         "seed": Key(1, "int", "seed of the disc sampling"),
         "positions": Key(None, "str", "a CSV of discs (columns x, y, r) instead of sampling, relative to case.toml"),
         "method": Key("exact", "choice", "the projection of the velocities: exact (exact to round-off, in jams "

@@ -138,7 +138,8 @@ def _recommended(lines: list, domain) -> list:
                   (f"push = {PUSH}", "a jam still pushes at push x speed (docs/validation.md)")],
         "# speed_law": [], "# push": [],
         "density": [(f"density = {DENSITY}", f"persons/m^2 ({DENSITY * area:.0f} people): number or expression "
-                     'in x, y, e.g. "2.0 * (x < 4)"')],
+                     'in x, y, e.g. "2.0 * (x < 4)"'),
+                    (f"# people = {DENSITY * area:.0f}", "or a number of persons: the density is then their shape")],
         "flow": [("flow = 0.5", "persons per metre per second (or rate, persons/s; or people)")],
         "# seed": [lines[_index(lines, "# seed")], ('# strategy = "decelerate"', "the recommended discs "
                                                      "(docs/validation.md)"), f"# fluctuation = {FLUCTUATION}"],

@@ -8,10 +8,12 @@ crowd fills at rho_max (m^2 at rho_max), unless Weidmann's law says the densitie
 
 
 def counts_people(case: dict) -> bool:
-    """Are the densities of the case (a case's resolved table, or a run's copy of it) people per m^2?"""
-    laws = [case.get("velocity", {}).get("speed_law")]
-    laws += [spec.get("speed_law") for spec in case.get("populations", {}).values()]
-    return case.get("model", {}).get("rho_max", 1.0) != 1 or "weidmann" in laws
+    """Are the densities of the case (a case's resolved table, or a run's copy of it) people per m^2? Yes with a
+    rho_max other than 1, Weidmann's law or a number of people (initial.people, populations.<name>.people)."""
+    populations = case.get("populations", {}).values()
+    laws = [case.get("velocity", {}).get("speed_law")] + [spec.get("speed_law") for spec in populations]
+    people = [case.get("initial", {}).get("people")] + [spec.get("people") for spec in populations]
+    return case.get("model", {}).get("rho_max", 1.0) != 1 or "weidmann" in laws or any(n is not None for n in people)
 
 
 def density_title(people: bool) -> str:

@@ -67,8 +67,10 @@ def desired_velocity(case: Case, domain: Domain, boundary: Boundary, spec=None, 
     return velocity
 
 
-def initial_density(case: Case, domain: Domain, source=None, key="initial.density") -> np.ndarray:
-    """Cell averages of the initial density (or of `source`, a population's, named `key`), scaled by rho_max."""
+def initial_density(case: Case, domain: Domain, source=None, key="initial.density", people=None,
+                    people_key="initial.people") -> np.ndarray:
+    """Cell averages of the initial density (or of `source`, a population's, named `key`), scaled by rho_max;
+    with `people` (named `people_key`) the density is the shape of a crowd of that many persons."""
     rho_max = case["model"]["rho_max"]
     source = case["initial"]["density"] if source is None else source
     density = domain.cell_average(Expression(source, origin=(case.file, key)))
@@ -81,10 +83,26 @@ def initial_density(case: Case, domain: Domain, source=None, key="initial.densit
             raise InputError(case.file, f"initial.regions.{name}", value, f"is outside [0, rho_max = {rho_max:g}]")
         density[np.asarray(subdomains[name])] = value
     low, high = float(density.min()), float(density.max())
-    if low < 0 or high > rho_max * (1 + 1e-12):
+    if low < 0 or people is None and high > rho_max * (1 + 1e-12):
         bad = low if low < 0 else high
         raise InputError(case.file, key, source, f"density {bad:g} is outside [0, rho_max = {rho_max:g}]")
+    if people is not None:
+        density = counted(case, domain, density, people, people_key)
     return np.minimum(density / rho_max, 1.0)
+
+
+def counted(case: Case, domain: Domain, shape: np.ndarray, people: float, key: str) -> np.ndarray:
+    """The cell densities (persons/m^2) of `people` persons spread as `shape` (>= 0; uniform if 0 everywhere):
+    sum of density x area = people; InputError naming `key` if the densest cell would exceed rho_max."""
+    rho_max = case["model"]["rho_max"]
+    shape = shape if shape.any() else np.ones_like(shape)
+    density = shape * (people / (shape @ domain.area))
+    if density.max() > rho_max * (1 + 1e-12):
+        most = people * rho_max / density.max()
+        raise InputError(case.file, key, people, f"persons do not fit under rho_max = {rho_max:g} in the shape of the "
+                         f"initial density (the densest place would hold {density.max():.4g} persons/m^2): at most "
+                         f"{most:.6g}")
+    return density
 
 
 def build_populations(case: Case, domain: Domain, boundary: Boundary) -> list:
@@ -96,10 +114,10 @@ def build_populations(case: Case, domain: Domain, boundary: Boundary) -> list:
                        (case.file, "velocity.speed_law"))
         return [Population(CROWD, velocity, law)]
     initial = case["initial"]
-    if initial["density"] != 0.0 or initial["regions"]:
-        key = "initial.density" if initial["density"] != 0.0 else "initial.regions"
-        raise InputError(case.file, key, initial[key.split(".")[1]],
-                         "with [populations] each population has its own initial density (populations.<name>.density)")
+    if initial["density"] != 0.0 or initial["regions"] or initial["people"] is not None:
+        key = next(f"initial.{k}" for k in ("density", "regions", "people") if initial[k] not in (0.0, {}, None))
+        raise InputError(case.file, key, initial[key.split(".")[1]], "with [populations] each population has its "
+                         "own initial density and people (populations.<name>.density, populations.<name>.people)")
     populations = []
     for name, spec in case["populations"].items():
         table = f"populations.{name}"
@@ -125,9 +143,9 @@ def build_populations(case: Case, domain: Domain, boundary: Boundary) -> list:
 def initial_densities(case: Case, domain: Domain) -> np.ndarray:
     """(populations, cells) initial densities in units of rho_max; their sum is at most 1."""
     if not case["populations"]:
-        return initial_density(case, domain)[None]
-    rho = np.array([initial_density(case, domain, spec["density"], f"populations.{name}.density")
-                    for name, spec in case["populations"].items()])
+        return initial_density(case, domain, people=case["initial"]["people"])[None]
+    rho = np.array([initial_density(case, domain, spec["density"], f"populations.{name}.density", spec["people"],
+                                    f"populations.{name}.people") for name, spec in case["populations"].items()])
     total = rho.sum(axis=0)
     if total.max() > 1 + 1e-12:
         k = int(np.argmax(total))
@@ -141,12 +159,30 @@ def initial_densities(case: Case, domain: Domain) -> np.ndarray:
 
 def disc_populations(case: Case, domain: Domain, rho: np.ndarray, q: np.ndarray) -> np.ndarray:
     """The population index of each disc centred at q: drawn with the populations' shares of the initial
-    density of its cell (rho: (populations, cells)), seeded by micro.seed."""
+    density of its cell (rho: (populations, cells)), seeded by micro.seed; with populations.<name>.people,
+    exactly that many discs each (drawn in turn without replacement, in proportion to the shares)."""
     if len(rho) == 1:
         return np.zeros(len(q), int)
     cell = np.maximum(domain.locate(q), 0)
     share = rho[:, cell].T
     total = share.sum(axis=1, keepdims=True)
     share = np.divide(share, total, out=np.full_like(share, 1.0 / len(rho)), where=total > 0)
-    draw = np.random.default_rng(case["micro"]["seed"]).random(len(q))
+    rng = np.random.default_rng(case["micro"]["seed"])
+    people = [spec["people"] for spec in case["populations"].values()]
+    if people[0] is not None and case["micro"]["positions"] is None:   # disc_count: all or none give people
+        return _exact_populations(share, [round(n) for n in people], rng)
+    draw = rng.random(len(q))
     return np.minimum((draw[:, None] > np.cumsum(share, axis=1)).sum(axis=1), len(rho) - 1)
+
+
+def _exact_populations(share: np.ndarray, counts: list, rng) -> np.ndarray:
+    """Population indices with counts[k] discs in population k: each population but the last draws its discs
+    from those left, in proportion to its share of their cells (the last takes the rest)."""
+    population = np.full(len(share), len(counts) - 1)
+    left = np.arange(len(share))
+    for k, n in enumerate(counts[:-1]):
+        weight = share[left, k] + 1e-300   # a disc where k has no share is drawn only when nothing else is left
+        chosen = rng.choice(len(left), size=n, replace=False, p=weight / weight.sum())
+        population[left[chosen]] = k
+        left = np.delete(left, chosen)
+    return population

@@ -17,7 +17,7 @@ from ..micro.sampling import overlaps, read_discs_csv, sample_discs
 from ..timer import Timer
 from .measurements import read_measurements
 from .plausibility import warn_implausible
-from .populations import build_populations, initial_density
+from .populations import build_populations, initial_densities
 from .sources import read_sources
 
 
@@ -99,15 +99,46 @@ def initial_discs(case: Case, domain: Domain, exits, rho=None) -> tuple[np.ndarr
     (default: [initial])."""
     spec = case["micro"]
     if spec["positions"] is not None:
+        people, key = disc_count(case)
+        if people is not None:
+            raise InputError(case.file, key, people, "the discs are those of micro.positions: give no number of "
+                             "people with it")
         return _discs_csv(case, domain, exits)
-    rho = initial_density(case, domain) if rho is None else rho  # cell values, scaled to [0, 1]
-    q, r = sample_discs(lambda xy: rho[np.maximum(domain.locate(xy), 0)], domain.points,
-                        domain.triangles, spec["radius"], spec["count"],
-                        walls=exits.segments("wall"), exits=exits.segments("exit"), seed=spec["seed"])
+    rho = initial_densities(case, domain).sum(axis=0) if rho is None else rho  # cell values, scaled to [0, 1]
+    people, key = disc_count(case)
+    count = spec["count"] if people is None else people
+    try:
+        q, r = sample_discs(lambda xy: rho[np.maximum(domain.locate(xy), 0)], domain.points,
+                            domain.triangles, spec["radius"], count, walls=exits.segments("wall"),
+                            exits=exits.segments("exit"), seed=spec["seed"], strict=people is not None)
+    except ValueError as err:   # strict: fewer discs fit than the people asked for
+        raise InputError(case.file, key, people, str(err)) from None
     if len(q) == 0 and not case["sources"]:
         raise InputError(case.file, "initial.density", case["initial"]["density"],
                          "gives no discs (an empty crowd)")
     return q, r
+
+
+def disc_count(case: Case) -> tuple:
+    """(the number of discs the people keys ask for, the key to name), or (None, None) without them: initial.people,
+    or the sum of populations.<name>.people, which every population then gives; not with micro.count."""
+    people = {f"populations.{name}.people": spec["people"] for name, spec in case["populations"].items()}
+    people = people or {"initial.people": case["initial"]["people"]}
+    given = {key: n for key, n in people.items() if n is not None}
+    if not given:
+        return None, None
+    key = next(iter(given))
+    if len(given) < len(people):
+        missing = next(k for k in people if k not in given)
+        raise InputError(case.file, missing, None, f"the discs need a number of people for every population, as "
+                         f"{key} gives")
+    if case["micro"]["count"] is not None:
+        raise InputError(case.file, "micro.count", case["micro"]["count"], f"give the discs by {key} or by "
+                         "micro.count, not both")
+    fraction = [k for k, n in given.items() if n != round(n)]
+    if fraction:
+        raise InputError(case.file, fraction[0], given[fraction[0]], "the discs need a whole number of people")
+    return sum(round(n) for n in given.values()), key
 
 
 def _discs_csv(case: Case, domain: Domain, exits) -> tuple[np.ndarray, np.ndarray]:
