@@ -12,8 +12,8 @@ from .contacts import WallSet
 
 class Arrivals:
     """The discs that enter a micro run: per source its facets, its rate (discs per second at the level of its
-    profile, femcrowd/profiles.py), its profile, its population index and its span [start, end]; discs of radius `radius` (or drawn in [min, max]); `walls` the segments
-    the slots must clear; drawn from default_rng(seed)."""
+    profile, femcrowd/profiles.py), its profile, its population index and its span [start, end]; discs of radius
+    `radius` (or drawn in [min, max]); `walls` the segments the slots must clear; drawn from default_rng(seed)."""
 
     def __init__(self, domain, facets, rates, profiles, populations, spans, radius, walls, seed: int = 1):
         lo, hi = (radius, radius) if np.isscalar(radius) else radius
