@@ -104,7 +104,9 @@ def _crowd(scene, model, t: float) -> tuple:
             times = np.linspace(start, source.end, 21)
             walk = distance[domain.f2t[0][source.facets]].mean() / max(speed.max(), 1e-300)
             ready.append((times[:-1] + times[1:]) / 2 + walk)
-            rate = source.per_metre / scene.case["model"]["rho_max"] * source.width
+            discs = source.counted and hasattr(model, "sim")   # a rate of discs (driver/sources.py, micro_arrivals)
+            rate = source.profile.level / _saturation(model) if discs else \
+                source.per_metre / scene.case["model"]["rho_max"] * source.width
             mass.append(np.array([rate * source.profile.amount(a, b) for a, b in zip(times[:-1], times[1:])]))
     ready, mass = np.concatenate(ready), np.concatenate(mass)
     flux = max(float(p.law.flux(p.law.r_star)) for p in scene.populations)
