@@ -44,15 +44,15 @@ class Source:
 
     def label(self, unit: str) -> str:
         """What arrives, for pictures: "0.5 persons/(m s)" (unit: of a flow per metre), "2 persons/s",
-        "200 persons", "flow = 1 + sin(t)", "rate: a table of 4 points"."""
+        "200 persons", "persons/(m s) = 1 + sin(t)", "persons/s: a table of 4 points"."""
         if self.people is not None:
             return f"{self.people:g} persons"
-        what, value = ("rate", self.profile.value) if self.counted else ("flow", self.profile.value)
+        value, per = self.profile.value, "persons/s" if self.counted else f"{unit}/(m s)"
         if isinstance(value, list):
-            return f"{what}: a table of {len(value)} points"
+            return f"{per}: a table of {len(value)} points"
         if isinstance(value, str):
-            return f"{what} = {value}"
-        return f"{value:g} persons/s" if self.counted else f"{value:g} {unit}/(m s)"
+            return f"{per} = {value}"
+        return f"{value:g} {per}"
 
 
 def read_sources(case: Case, domain: Domain) -> list:
