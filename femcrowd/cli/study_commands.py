@@ -58,6 +58,39 @@ def convergence(case_dir, levels, cfl, set_values, times, overrides, out, serial
     click.echo(f"report: {out_dir}/convergence.md, convergence.csv, error_vs_h.png, error_vs_time.png")
 
 
+@main.command("evacuation-times")
+@click.argument("case_dir", type=click.Path())
+@click.option("--levels", type=click.IntRange(2, 9), default=4, show_default=True,
+              help="Refinement levels: mesh.refine = base + 0..N-1 (or the first N of [convergence] meshes).")
+@click.option("--cfl", callback=_floats("--cfl"), metavar="C1,C2,...",
+              help="CFL numbers: one series per value (time-step study).")
+@click.option("--set-values", "set_values", multiple=True, metavar="KEY=V1,V2,...",
+              help="One series per value, e.g. velocity.push=0.2,0.3 (repeatable: all combinations).")
+@set_option
+@study_out_option("evacuation")
+@serial_option
+@scheduler_option
+@force_option
+def evacuation_times(case_dir, levels, cfl, set_values, overrides, out, serial, scheduler, force):
+    """Evacuation times of a macro case under mesh refinement: when 50, 90, 99 % and all but
+    time.empty_fraction of the crowd are out, on each level, with the change between levels, the observed
+    order and Richardson's estimate of the converged time.
+
+    Writes evacuation.csv and evacuation.md (docs/convergence.md, "Evacuation times").
+
+    \b
+    Examples:
+      femcrowd evacuation-times cases/room --levels 3
+      femcrowd evacuation-times cases/two-exits --levels 3 --serial --out /tmp/two-exits-times
+    """
+    from ..studies.evacuation import study
+
+    rows, text, out_dir = study(case_dir, levels, out, overrides, cfl, set_values, serial, scheduler, force,
+                                echo=click.echo)
+    click.echo(text)
+    click.echo(f"report: {out_dir}/evacuation.md, evacuation.csv")
+
+
 @main.command()
 @click.argument("case_dir", type=click.Path())
 @click.option("--set-values", "set_values", multiple=True, required=True, metavar="KEY=V1,V2,...",

@@ -53,6 +53,7 @@ class Canvas:
             p.add_mesh(floor.translate((0, 0, -5e-4 * size)), color=FLOOR, lighting=False)
         self.scale, self.size, self.boundary, self.drawn = scale, size, [], None
         self.doors(walls, exits, labels)
+        self._scale_bar(x0, y0 - (self.MARGIN + 40) / scale, width)
         self.text = p.add_text("", position=(self.MARGIN, height - self.TOP + 6), font_size=max(10, width // 75),
                                color=TEXT)
         self.layer = self.outline = self.legend = None
@@ -65,6 +66,22 @@ class Canvas:
         camera.up = (0, 1, 0)
         camera.parallel_scale = world_height / 2
         p.renderer.ResetCameraClippingRange()
+
+    def _scale_bar(self, left, y, width):
+        """A map's scale: a bar of a round length (1, 2 or 5 x 10^k m, at most 0.15 of the picture's width) in the
+        bottom band left of the colour bar, from below the plan's left edge, labelled with its length."""
+        target = 0.15 * width / self.scale
+        unit = 10.0 ** np.floor(np.log10(target))
+        length = max(m * unit for m in (1, 2, 5) if m * unit <= target)
+        z = 3e-3 * self.size
+        tick = 5 / self.scale
+        right = left + length
+        bar = np.array([[[left, y], [right, y]], [[left, y - tick], [left, y + tick]], [[right, y - tick], [right, y + tick]]])
+        self.plotter.add_mesh(_lines(bar, z), color=TEXT, line_width=2, lighting=False)
+        self.plotter.add_point_labels([[left + length / 2, y + 4 / self.scale, z]], [f"{length:g} m"],
+                                      font_size=max(12, width // 60), text_color=TEXT, shape=None,
+                                      show_points=False, always_visible=True, justification_horizontal="center",
+                                      justification_vertical="bottom")
 
     def doors(self, walls, exits, labels):
         """Draw walls (grey) and exits (green), replacing those drawn before unless the labels are the same: closed

@@ -17,8 +17,9 @@ FRUIN = (0.31, 0.43, 0.72, 1.08, 2.17)
 FRUIN_COLOURS = ("#1a9850", "#91cf60", "#d9ef8b", "#fee08b", "#fc8d59", "#d73027")
 
 
-def measurement_plots(run, out) -> list:
-    """The pictures of the run's measurements.csv (none when it has none)."""
+def measurement_plots(run, out, plan) -> list:
+    """The pictures of the run's measurements.csv (none when it has none); plan: the run's FloorPlan
+    (plot/pictures.py), whose walls and exits the level-of-service map draws."""
     path = run.directory / "measurements.csv"
     if not path.is_file():
         return []
@@ -29,7 +30,7 @@ def measurement_plots(run, out) -> list:
     if any(c.endswith("_density") for c in m):
         written.append(areas(run, m, out / "areas.png"))
     if "solution" in run.frames and "max_density" in run.frame("solution", -1).cell_data:
-        written.append(level_of_service(run, out / "level_of_service.png"))
+        written.append(level_of_service(run, plan, out / "level_of_service.png"))
     return written
 
 
@@ -77,9 +78,13 @@ def areas(run, m, path):
     return path
 
 
-def level_of_service(run, path):
+def level_of_service(run, plan, path):
+    from matplotlib.collections import LineCollection
     from matplotlib.colors import BoundaryNorm, ListedColormap
     from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+
+    from .canvas import EXIT, WALL
 
     frame = run.frame("solution", -1)
     triangles = frame.cells_dict["triangle"]
@@ -91,9 +96,20 @@ def level_of_service(run, path):
     art = a.tripcolor(frame.points[:, 0], frame.points[:, 1], triangles, facecolors=density,
                       cmap=ListedColormap(FRUIN_COLOURS), norm=norm)
     bounds = (0.0, *FRUIN, top)
-    bar = fig.colorbar(art, ax=a, shrink=0.8, ticks=[(lo + hi) / 2 for lo, hi in zip(bounds[:-1], bounds[1:])])
+    bar = fig.colorbar(art, ax=a, shrink=0.8, ticks=[(lo + hi) / 2 for lo, hi in zip(bounds[:-1], bounds[1:])],
+                       label="level: maximum density (persons/m^2)")
     bar.ax.set_yticklabels([f"{level} ({lo:g}-{hi:g})" if level != "F" else f"{level} (> {lo:g})"
                             for level, lo, hi in zip("ABCDEF", bounds[:-1], bounds[1:])])
+    walls, exits, labels, _ = plan.doors(0.0)
+    a.add_collection(LineCollection(walls, colors=WALL, linewidths=2, capstyle="round"))
+    a.add_collection(LineCollection(exits, colors=EXIT, linewidths=4))
+    for name, middle, normal in labels:
+        side = lambda n, low, high: low if n < -0.5 else high if n > 0.5 else "center"  # noqa: E731 (outward)
+        a.annotate(name, middle, xytext=(6 * normal[0], 6 * normal[1]), textcoords="offset points", color=EXIT,
+                   fontsize=9, fontweight="bold", ha=side(normal[0], "right", "left"),
+                   va=side(normal[1], "top", "bottom"), annotation_clip=False)
+    a.legend(handles=[Line2D([], [], color=WALL, lw=2, label="wall"), Line2D([], [], color=EXIT, lw=4, label="exit")],
+             loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2, frameon=False)
     a.set_aspect("equal")
     fig.suptitle(run.title, fontsize=10)
     a.set(title="level of service (Fruin 1971, walkways) of the maximum density over the run",

@@ -310,10 +310,16 @@ def curves_figure(run):
     a.legend()
 
     a = ax[0, 1]
-    exits = [c for c in h if c.startswith("evacuated_")]
+    populations = set(run.case.get("populations", {}))   # evacuated_<population> next to evacuated_<exit>
+    exits = [c for c in h if c.startswith("evacuated_") and c[len("evacuated_"):] not in populations]
     width = max(t_show / 80, 2 * float(np.median(np.diff(np.r_[0.0, t]))))  # bins of a few steps at least
     for column in exits:
-        a.plot(*_rate(t, h[column], width), drawstyle="steps-mid", lw=2, label=column[len("evacuated_"):])
+        a.plot(*_rate(t, h[column], width), drawstyle="steps-mid", lw=3.5, alpha=0.8, zorder=3,
+               label=column[len('evacuated_'):])
+    for k, name in enumerate(p for p in run.case.get("populations", {}) if f"evacuated_{p}" in h):
+        # thin and dashed: the exits show beneath
+        a.plot(*_rate(t, h[f"evacuated_{name}"], width), drawstyle="steps-mid", lw=1.3, ls="--", zorder=4,
+               color=f"C{len(exits) + k}", label=f"population {name}")
     if len(exits) != 1:
         a.plot(*_rate(t, h["evacuated"], width), drawstyle="steps-mid", color="k", lw=1.2,
                ls="--" if exits else "-", label="all exits")
@@ -355,5 +361,5 @@ def _plot_run(directory, times, animate, out, mp4, quiet) -> list:
     plan = FloorPlan(run)
     written = pictures(run, plan, times, out)
     written += [animation(run, plan, out, mp4, quiet) if animate else None, curves(run, out)]
-    written += measurement_plots(run, out)
+    written += measurement_plots(run, out, plan)
     return [path for path in written if path is not None]

@@ -129,9 +129,15 @@ def scene_figure(case):
     if scene.sources:
         legend.append(Line2D([], [], color=SOURCE, lw=4, label="source (arrivals)"))
     for line in scene.lines:
-        ax.annotate("", line.b, line.a, arrowprops=dict(arrowstyle="->", color=MEASURE, lw=2, ls="--"), zorder=6)
-        ax.annotate(line.name, line.b, color=MEASURE, fontsize=9, ha="left", va="bottom",   # at the arrow's head
-                    xytext=(4, 4), textcoords="offset points", zorder=6)
+        a, b = np.asarray(line.a, float), np.asarray(line.b, float)
+        ax.plot(*np.column_stack([a, b]), color=MEASURE, lw=2, ls="--", zorder=6)
+        middle, along = (a + b) / 2, b - a
+        right = np.array([along[1], -along[0]]) / np.linalg.norm(along)   # the side counted positive
+        reach = min(0.5 * np.linalg.norm(along), 0.04 * size)
+        ax.annotate("", middle + reach * right, middle - reach * right, zorder=6,   # across the line
+                    arrowprops=dict(arrowstyle="-|>", color=MEASURE, lw=2, mutation_scale=14))
+        ax.annotate(line.name, middle + reach * right, color=MEASURE, fontsize=9, ha="left", va="bottom",
+                    xytext=(4, 4), textcoords="offset points", zorder=6)   # at the arrow's head
     for area in scene.areas:
         ax.add_patch(Polygon(np.asarray(area.polygon.exterior.coords), closed=True, facecolor=MEASURE, alpha=0.15,
                              edgecolor=MEASURE, lw=1.5, zorder=3))
@@ -139,7 +145,7 @@ def scene_figure(case):
         ax.annotate(area.name, ((left + right) / 2, top), color=MEASURE, fontsize=9, ha="center", va="top",
                     xytext=(0, -3), textcoords="offset points", zorder=6)
     if scene.lines:
-        legend.append(Line2D([], [], color=MEASURE, lw=2, ls="--", label="counting line (-> counted positive)"))
+        legend.append(Line2D([], [], color=MEASURE, lw=2, ls="--", label="counting line (the arrow across it: counted positive)"))
     if scene.areas:
         legend.append(Patch(facecolor=MEASURE, alpha=0.3, edgecolor=MEASURE, label="measurement area"))
     ax.set_aspect("equal")

@@ -10,6 +10,7 @@ def flows_plot(rows, table, labels, published, path):
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
 
     widths = [r["width"] for r in table]
     low, high = min(widths) - 0.25, max(widths) + 0.25
@@ -29,6 +30,9 @@ def flows_plot(rows, table, labels, published, path):
                    zorder=2)
     ax.set(xlabel="bottleneck width w (m)", ylabel="specific flow J / w (persons/(m s))", yscale="log",
            xlim=(low, high), title="Flow through a bottleneck: femcrowd (lines) and experiments (grey)")
+    ax.yaxis.set_major_locator(LogLocator(subs=(1, 2, 5)))   # 0.5, 1, 2, 5 ... written as plain numbers,
+    ax.yaxis.set_major_formatter(FormatStrFormatter("%g"))   # not as 2x10^0
+    ax.yaxis.set_minor_formatter(NullFormatter())
     ax.grid(alpha=0.3, which="both")
     fig.legend(loc="outside lower center", fontsize=7.5, ncol=2)
     fig.savefig(path, dpi=110)

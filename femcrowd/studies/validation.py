@@ -183,8 +183,9 @@ def summarise(rows) -> list:
                 value, spread = float(values.mean()), f"{values.min():.2f}-{values.max():.2f} over {len(runs)} seeds"
             else:
                 value = float(values[-1])
-                change = abs(values[-1] - values[-2]) / abs(values[-2]) if len(values) > 1 else np.nan
-                spread = " / ".join(f"{v:.3f}" for v in values) + f" ({100 * change:.1f} %)"
+                spread = " / ".join(f"{v:.3f}" for v in values)
+                if len(values) > 1:   # the change between the last two meshes; one mesh has none to show
+                    spread += f" ({100 * abs(values[-1] - values[-2]) / abs(values[-2]):.1f} %)"
             table.append({"setting": name, "width": width, "specific_flow": value, "runs": spread,
                           "all_out": f"{sum(r['all_out'] for r in runs)}/{len(runs)}",
                           "cells": runs[-1]["cells"], "wall": sum(r["wall"] for r in runs)})

@@ -203,6 +203,7 @@ def test_plot_of_a_run_with_measurements(tmp_path):
         check_not_blank(iio.imread(out / "plots" / name)[..., :3], colours=10, filled=0.05)
     service = iio.imread(out / "plots" / "level_of_service.png")[..., :3]
     assert has_colour(service, rgb(FRUIN_COLOURS[-1])) and has_colour(service, rgb(FRUIN_COLOURS[0]))
+    assert has_colour(service, rgb(WALL)) and has_colour(service, rgb(EXIT))   # the map shows the floor plan
     plain = run(load_case(ROOT / "cases" / "room", {"time.end": 1.0}), tmp_path / "plain").output_dir
     CliRunner().invoke(main, ["plot", str(plain), "--no-animation", "-q"])
     assert not (plain / "plots" / "lines.png").exists()

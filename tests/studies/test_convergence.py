@@ -70,7 +70,7 @@ def test_radial_errors_decrease_and_the_reference_curves_are_read(tmp_path):
     radius = [abs(r["front_error"]) for r in rows]
     assert l1[0] > l1[1] > l1[2] and radius[0] > radius[1] > radius[2]
     assert all(r["mass_error"] < 1e-10 for r in rows)
-    assert ("Lagrangian OT, pysdot (issue 3)", "l1_pixels") in reference_curves(load_case(CASES / "radial"))
+    assert ("Lagrangian OT, pysdot (bar to beat)", "l1_pixels") in reference_curves(load_case(CASES / "radial"))
     assert (out / "frontier.png").stat().st_size > 20_000 and "frontier.png" in text
 
 

@@ -60,6 +60,7 @@ def test_validate_writes_the_table_the_runs_and_the_plot(tmp_path):
     assert result.exit_code == 0, result.output
     table = (out / "validation.md").read_text()
     assert "door capacity 1.9" in table and "| 1 | 1.90 |" in table
+    assert "nan" not in table   # one mesh: no change between meshes to show, not "(nan %)"
     assert (out / "validation.png").stat().st_size > 10_000
     assert len((out / "validation.csv").read_text().splitlines()) == 3   # a header and two runs
 

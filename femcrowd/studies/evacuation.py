@@ -1,0 +1,133 @@
+"""Evacuation times under refinement: the headline answer of a scene, checked for mesh convergence.
+
+A study runs one macro case on a refinement series (the levels and series of a convergence study,
+convergence.plan_study: ``mesh.refine`` = base + 0..N-1, ``--set-values``, ``--cfl``) until the crowd has
+left, and reads on each level the times at which 50 %, 90 %, 99 % and all but ``time.empty_fraction`` of the
+crowd are out. For each time it reports the difference d_k = t_k - t_{k-1} between consecutive levels and the
+observed order
+
+    p_k = log(|d_{k-1}| / |d_k|) / log(h_{k-1} / h_k),
+
+and, where p_k > 0, Richardson's estimate of the converged time t_k + d_k / ((h_{k-1} / h_k)^p_k - 1)
+(Richardson 1911; the generalised form of Roache 1998, ch. 5).
+"""
+
+import csv
+import math
+import os
+
+import numpy as np
+
+from ..case import load_case
+from ..driver import Simulation
+from ..driver.output import prepare_output_dir
+from ..errors import InputError
+from ..timer import Stopwatch
+from .convergence import plan_study
+from .execute import execute
+
+#: the shares of the crowd out whose times are measured; the last one is all but time.empty_fraction
+SHARES = (0.5, 0.9, 0.99)
+
+
+def evacuation_times(time, evacuated, total, shares) -> list:
+    """The first times at which ``evacuated`` reaches each share of ``total`` (linear between the steps;
+    nan when it never does)."""
+    time, evacuated = np.r_[0.0, time], np.r_[0.0, evacuated]
+    times = []
+    for share in shares:
+        k = int(np.searchsorted(evacuated >= share * total, True))   # evacuated is non-decreasing
+        if k == len(evacuated):
+            times.append(math.nan)
+        elif k == 0:
+            times.append(0.0)
+        else:
+            e0, e1 = evacuated[k - 1], evacuated[k]
+            times.append(float(time[k - 1] + (share * total - e0) / (e1 - e0) * (time[k] - time[k - 1])))
+    return times
+
+
+def share_names(case) -> list:
+    return [f"{100 * s:g} %" for s in SHARES] + [f"all but {case['time']['empty_fraction']:g}"]
+
+
+def run_level(task) -> dict:
+    """One level: run until the crowd has left (or time.end); its evacuation times."""
+    case = load_case(task.case_dir, task.overrides)
+    clock = Stopwatch()
+    simulation = Simulation(case)
+    result = simulation.run()
+    h = result.history
+    total = h["mass"][0] + (h["inflow"][-1] if "inflow" in h else 0.0)   # everyone who was ever inside
+    shares = (*SHARES, 1.0 - case["time"]["empty_fraction"])
+    return {"cells": simulation.scene.domain.ncells, "h": simulation.scene.domain.h, "steps": len(h["time"]) - 1,
+            "wall_seconds": clock.seconds, "times": evacuation_times(h["time"], h["evacuated"], total, shares)}
+
+
+def observed(values, h) -> tuple[list, list, list]:
+    """Differences between consecutive levels, observed orders and Richardson estimates (nan where undefined)."""
+    n = len(values)
+    diffs = [math.nan] + [values[k] - values[k - 1] for k in range(1, n)]
+    orders, limits = [math.nan] * n, [math.nan] * n
+    for k in range(2, n):
+        d0, d1, ratio = abs(diffs[k - 1]), abs(diffs[k]), h[k - 1] / h[k]
+        if d0 > 0 and d1 > 0 and ratio > 1:
+            orders[k] = math.log(d0 / d1) / math.log(ratio)
+            if orders[k] > 0:
+                limits[k] = values[k] + diffs[k] / (ratio ** orders[k] - 1)
+    return diffs, orders, limits
+
+
+def study(case_dir, levels: int, out=None, overrides=(), cfls=(), set_values=(), serial: bool = False,
+          scheduler: str | None = None, force: bool = False, echo=None) -> tuple[list, str, object]:
+    """Run the refinement series and write evacuation.csv and evacuation.md; (rows, report text, directory)."""
+    base, _, tasks = plan_study(case_dir, levels, overrides, cfls, set_values)
+    if base["model"]["type"] != "macro":
+        raise InputError(base.file, "model.type", base["model"]["type"],
+                         "evacuation times under mesh refinement are a macro study (discs: femcrowd sweep over seeds)")
+    if not base["boundary"]["exits"]:
+        raise InputError(base.file, "boundary.exits", [], "a scene without exits has no evacuation time")
+    out_dir = prepare_output_dir(base.output_dir(out, "evacuation"), base.file, force)
+    results = execute(run_level, tasks, serial, scheduler, echo=echo)
+    names = share_names(base)
+    rows = [{"series": t.series, "level": t.level, "mesh": t.mesh, "cfl": t.cfl,
+             **{k: r[k] for k in ("cells", "h", "steps", "wall_seconds")},
+             **{f"t {name}": v for name, v in zip(names, r["times"])}} for t, r in zip(tasks, results)]
+    with open(out_dir / "evacuation.csv", "w", newline="") as f:
+        writer = csv.DictWriter(f, list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    text = report(base, rows, names)
+    (out_dir / "evacuation.md").write_text(text)
+    return rows, text, out_dir
+
+
+def report(case, rows, names) -> str:
+    """The markdown tables: per series, per level the times; then per share the differences and orders."""
+    lines = [f"# Evacuation times under refinement: {case['title'] or case.directory.name}", "",
+             f"Case `{os.path.relpath(case.file)}`. Times (s) at which each share of the crowd is out; "
+             "d: the change from the previous level, p: the observed order, t*: Richardson's estimate "
+             "of the converged time.", ""]
+    for series in dict.fromkeys(r["series"] for r in rows):
+        mine = [r for r in rows if r["series"] == series]
+        lines += [f"## {series}", ""]
+        head = ["level", "cells", "h (m)", "steps", "run time (s)"] + [f"t {n}" for n in names]
+        lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+        for r in mine:
+            lines.append("| " + " | ".join([str(r["level"]), str(r["cells"]), f"{r['h']:.3g}", str(r["steps"]),
+                                             f"{r['wall_seconds']:.3g}"] + [_time(r[f"t {n}"]) for n in names])
+                         + " |")
+        lines += ["", "| share out | " + " | ".join(f"level {r['level']}: d (p)" for r in mine[1:])
+                  + " | t* |", "|" + "---|" * (len(mine) + 1)]
+        for n in names:
+            values = [r[f"t {n}"] for r in mine]
+            diffs, orders, limits = observed(values, [r["h"] for r in mine])
+            cells = [(f"{d:+.3g}" if math.isfinite(d) else "-") + (f" ({p:.2f})" if math.isfinite(p) else "")
+                     for d, p in zip(diffs[1:], orders[1:])]
+            lines.append(f"| {n} | " + " | ".join(cells) + f" | {_time(limits[-1])} |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def _time(t) -> str:
+    return f"{t:.2f}" if math.isfinite(t) else "-"

@@ -1,0 +1,55 @@
+"""Evacuation times under refinement (femcrowd evacuation-times): the times read off the evacuated curve, the
+observed orders, and convergence to the exact times of the saturated evacuation (exact solution 3)."""
+
+import math
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from femcrowd.cli import main
+from femcrowd.studies.evacuation import evacuation_times, observed, study
+
+from ..support import CASES
+
+
+def test_times_are_read_between_the_steps():
+    t = np.linspace(0.1, 10.0, 100)
+    assert evacuation_times(t, t, 10.0, (0.5, 0.9, 0.99, 1 - 1e-4)) == pytest.approx([5.0, 9.0, 9.9, 9.999])
+    assert math.isnan(evacuation_times(t, 0.5 * t, 10.0, (0.6,))[0])   # never reached
+
+
+def test_orders_and_the_richardson_estimate_of_a_first_order_series():
+    """t_k = T + C h_k: order 1 between every three levels, and Richardson's estimate is T exactly."""
+    h = [0.4, 0.2, 0.1, 0.05]
+    diffs, orders, limits = observed([30.0 + 7.0 * x for x in h], h)
+    assert diffs[1:] == pytest.approx([-1.4, -0.7, -0.35])
+    assert orders[2:] == pytest.approx([1.0, 1.0]) and limits[-1] == pytest.approx(30.0)
+    assert math.isnan(orders[1]) and math.isnan(limits[1])
+
+
+def saturated_times(k, s0, shares):
+    """Exact solution 3: the block empties as s(t) = (s0 + 2/k) exp(-k t / 2) - 2/k; the share q is out when
+    s = (1 - q) s0."""
+    return [2 / k * math.log((s0 + 2 / k) / ((1 - q) * s0 + 2 / k)) for q in shares]
+
+
+def test_the_saturated_evacuation_times_converge_to_the_exact_ones(tmp_path):
+    """Upwind DG0 on three meshes: the errors of the times of 50, 90 and 99 % out halve with h (first order,
+    docs/model.md), that of the last 1e-4 (the smeared tail drains last) falls too."""
+    rows, text, out = study(CASES / "saturated-exit", 3, tmp_path / "times", overrides=["time.end=2.0"],
+                            serial=True)
+    exact = saturated_times(1.0, 1.0, (0.5, 0.9, 0.99, 1 - 1e-4))
+    names = [c for c in rows[0] if c.startswith("t ")]
+    errors = np.array([[abs(r[n] - e) for n, e in zip(names, exact)] for r in rows])
+    assert np.all(errors[1:] < errors[:-1])                      # closer to the exact times on each level
+    assert np.all(errors[1:, :3] < 0.6 * errors[:-1, :3])       # first order
+    assert np.all(errors[-1, :3] < 0.06 * np.array(exact[:3]))
+    assert (out / "evacuation.csv").is_file() and "Richardson" in (out / "evacuation.md").read_text()
+
+
+def test_a_micro_case_is_refused_in_one_line(tmp_path):
+    result = CliRunner().invoke(main, ["evacuation-times", str(CASES / "narrow-door-micro"),
+                                       "--out", str(tmp_path / "t")])
+    assert result.exit_code == 2 and "model.type" in result.output and result.output.count("\n") == 1
+    assert not (tmp_path / "t").exists()
