@@ -46,7 +46,7 @@ def test_sigint_to_a_dask_study_keeps_its_finished_levels(tmp_path):
     assert "interrupted" in (out / "convergence.md").read_text()
     assert sorted(f.name for f in out.iterdir()) == [".femcrowd-lock", ".femcrowd-run", "convergence.csv",
                                                      "convergence.md"]
-    deadline = time.monotonic() + 10   # no worker left behind
+    deadline = time.monotonic() + 120   # no worker left behind (they end in a second or two: a bound for a hang)
     while time.monotonic() < deadline:
         try:
             os.killpg(proc.pid, 0)
@@ -54,7 +54,7 @@ def test_sigint_to_a_dask_study_keeps_its_finished_levels(tmp_path):
             break
         time.sleep(0.2)
     else:
-        pytest.fail("processes of the study's group still alive 10 s after it ended")
+        pytest.fail("processes of the study's group still alive 120 s after it ended")
 
 
 def test_interrupted_self_convergence_keeps_the_levels_without_errors(tmp_path, monkeypatch):
