@@ -36,7 +36,7 @@ class FemcrowdGroup(click.Group):
             click.echo(f"femcrowd: error: {err}", err=True)
             sys.exit(1)
         except StudyInterrupted as err:   # a study without a report of its own (sweep, validate)
-            done = sum(result is not None for result in err.results)
+            done = sum(result is not None and "failed" not in result for result in err.results)
             click.echo(f"femcrowd: interrupted; {done} of the study's {len(err.results)} runs finished, their output "
                        "directories are kept (the study's table is not written: run it again)", err=True)
             sys.exit(130)

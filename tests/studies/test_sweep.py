@@ -97,3 +97,23 @@ def test_a_failed_member_leaves_the_others_tabulated_through_dask(tmp_path):
             LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=":0") as cluster:
         result = sweep_with_a_bad_mesh(tmp_path, "--scheduler", cluster.scheduler_address)
     check_failed_member_is_tabulated(tmp_path, result)
+
+
+def test_an_interrupted_sweep_does_not_count_a_failed_member_as_finished(tmp_path, monkeypatch):
+    """The first member fails, Ctrl-C in the second: no run finished (a failed one is not counted)."""
+    from click.testing import CliRunner
+
+    import femcrowd.studies.sweep as module
+    from femcrowd.cli import main
+
+    def fail_then_interrupt(task):
+        if task.values["scheme.transport"] == "upwind":
+            raise RuntimeError("no step")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(module, "sweep_task", fail_then_interrupt)
+    result = CliRunner().invoke(main, ["sweep", str(CASES / "corridor-wall"), "--set-values",
+                                       "scheme.transport=upwind,muscl", "--serial", "--out", str(tmp_path / "sweep")])
+    assert result.exit_code == 130, result.output
+    assert result.stdout == "  failed: scheme.transport=upwind: RuntimeError: no step\n"
+    assert result.stderr.startswith("femcrowd: interrupted; 0 of the study's 2 runs finished")
