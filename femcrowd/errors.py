@@ -1,7 +1,7 @@
-"""The error type for bad user input (case files, meshes, geometry files), and the interruption of a
-command that kept part of its work.
+"""The error type for bad user input (case files, meshes, geometry files), the interruption of a
+command that kept part of its work, and a study that kept its finished runs when others failed.
 
-The CLI prints either as a single line and exits non-zero (2, 130), without a traceback.
+The CLI prints each as a single line and exits non-zero (2, 130, 1), without a traceback.
 """
 
 
@@ -24,3 +24,12 @@ class InputError(Exception):
 class Interrupted(KeyboardInterrupt):
     """Ctrl-C (SIGINT, SIGTERM, SIGHUP) during a command that saved part of its work: the message says what
     is kept and where."""
+
+
+class StudyFailed(Exception):
+    """A study some of whose runs failed: the finished ones are tabulated (``report``: the study's text); the
+    message says how many failed, the first one's reason, and where the table is."""
+
+    def __init__(self, message: str, report: str = ""):
+        super().__init__(message)
+        self.report = report

@@ -1,7 +1,5 @@
 """The safe expression language of case files: arithmetic works, Python internals do not."""
 
-import time
-
 import numpy as np
 import pytest
 
@@ -66,13 +64,12 @@ def test_numbers_are_floats_with_the_values_of_python_numbers(source):
     ("-(x < 1)", "cannot be evaluated: The numpy boolean negative"),
 ])
 def test_values_that_are_not_finite_are_errors_at_once(source, words):
-    """Floating-point errors give inf or nan (numpy's rules, at once: 10**10**10 is not a big integer); a
-    result that is not finite is an error naming the value and the first point that gives it."""
-    start = time.perf_counter()
+    """Floating-point errors give inf or nan (numpy's rules, at once: 10**10**10 is not a big integer, or it
+    would not give inf); a result that is not finite is an error naming the value and the first point that
+    gives it."""
     with pytest.raises(ExpressionError) as err:
         Expression(source)(X, Y, 2.0)
     assert words in str(err.value)
-    assert time.perf_counter() - start < 1.0
 
 
 def test_infinities_that_where_discards_are_fine():
@@ -100,12 +97,10 @@ def test_a_speed_law_names_the_density():
 ])
 def test_limits_and_arities_are_checked_before_evaluation(source, words):
     """Too long, too deep, too many nodes, a number beyond floats, a wrong number of arguments: refused when
-    parsed, in well under a second, never a RecursionError or MemoryError."""
-    start = time.perf_counter()
+    parsed (by the constructor, before any evaluation), never a RecursionError or MemoryError."""
     with pytest.raises(ExpressionError) as err:
         Expression(source)
     assert words in str(err.value)
-    assert time.perf_counter() - start < 1.0
 
 
 def test_expressions_within_the_limits_are_evaluated():

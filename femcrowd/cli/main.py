@@ -9,13 +9,14 @@ import sys
 import click
 
 from .. import __version__
-from ..errors import InputError, Interrupted
+from ..errors import InputError, Interrupted, StudyFailed
 from ..studies.execute import StudyInterrupted
 
 
 class FemcrowdGroup(click.Group):
-    """A click group that turns InputError into a one-line message and exit code 2, and gives every command
-    the group's -v/--verbose (so that it may come after the command's name as well as before)."""
+    """A click group that turns InputError into a one-line message and exit code 2 (a StudyFailed: its report,
+    then one line and exit code 1), and gives every command the group's -v/--verbose (so that it may come after
+    the command's name as well as before)."""
 
     def add_command(self, cmd, name=None):
         cmd.params.append(verbose_option())
@@ -30,8 +31,12 @@ class FemcrowdGroup(click.Group):
         except Interrupted as err:
             click.echo(f"femcrowd: interrupted; {err}", err=True)
             sys.exit(130)
+        except StudyFailed as err:   # the table of the finished runs, then which failed
+            click.echo(err.report)
+            click.echo(f"femcrowd: error: {err}", err=True)
+            sys.exit(1)
         except StudyInterrupted as err:   # a study without a report of its own (sweep, validate)
-            done = sum(result is not None for result in err.results)
+            done = sum(result is not None and "failed" not in result for result in err.results)
             click.echo(f"femcrowd: interrupted; {done} of the study's {len(err.results)} runs finished, their output "
                        "directories are kept (the study's table is not written: run it again)", err=True)
             sys.exit(130)

@@ -29,12 +29,12 @@ from ..case import load_case
 from ..driver import Simulation
 from ..driver.output import prepare_output_dir
 from ..driver.scene import check_transport_cfl
-from ..errors import InputError, Interrupted
+from ..errors import InputError, Interrupted, StudyFailed
 from ..macro.transport import TRANSPORTS
 from ..mesh import Domain
 from ..plot.convergence import error_plot
 from ..timer import Stopwatch
-from .execute import StudyInterrupted, execute
+from .execute import StudyInterrupted, describe, execute
 from .measures import METRICS, ExactReference, LevelReference, exact_solution, measure
 
 #: the run-time columns of convergence.csv
@@ -160,36 +160,46 @@ def study(case_dir, levels: int, out=None, overrides=(), cfls=(), set_values=(),
           scheduler: str | None = None, force: bool = False, echo=None) -> tuple[list, str, Path]:
     """Run a convergence study and write its report; returns (rows, report text, output dir).
 
-    Ctrl-C: the report of the levels that finished is written (their errors where their reference is known:
-    the exact solution, or a finished finest level), then Interrupted says which levels are kept, and where.
+    Ctrl-C, or runs that fail (the others go on): the report of the levels that finished is written (their errors
+    where their reference is known: the exact solution, or a finished finest level), then Interrupted says which
+    levels are kept, and where; StudyFailed also which runs failed, and why.
     """
     base, exact, tasks = plan_study(case_dir, levels, overrides, cfls, set_values, times)
     out_dir = prepare_output_dir(base.output_dir(out, "convergence"), base.file, force)
     reference = reference_curves(base)
     try:
-        results = execute(run_task, tasks, serial, scheduler, echo=echo)
+        results = execute(run_task, tasks, serial, scheduler, echo=echo, keep_going=True)
     except StudyInterrupted as stop:
-        raise Interrupted(_keep_finished(out_dir, base, exact, tasks, stop.results, reference)) from None
+        finished = [None if r is None or "failed" in r else r for r in stop.results]
+        raise Interrupted(_keep_finished(out_dir, base, exact, tasks, finished, reference)[0]) from None
+    failed = [(describe(t), r["failed"]) for t, r in zip(tasks, results) if "failed" in r]
+    if failed:
+        finished = [None if "failed" in r else r for r in results]
+        kept, text = _keep_finished(out_dir, base, exact, tasks, finished, reference, failed)
+        raise StudyFailed(f"{len(failed)} of {len(tasks)} runs failed ({failed[0][0]}: {failed[0][1]}); {kept}", text)
     rows = collect_rows(tasks, results)
     text = write_report(out_dir, base, exact, tasks, rows, reference)
     return rows, text, out_dir
 
 
-def _keep_finished(out_dir, case, exact, tasks, results, reference) -> str:
-    """Write the report of the finished runs of an interrupted study; the line that says what is kept."""
+def _keep_finished(out_dir, case, exact, tasks, results, reference, failed=()) -> tuple[str, str]:
+    """Write the report of the finished runs of an interrupted study, or of one with failed runs (their
+    reasons listed); (the line that says what is kept, the report)."""
     finished = {}
     for task, result in zip(tasks, results):
         if result is not None:
             finished.setdefault(task.series, []).append(str(task.level))
     if not finished:
-        return f"no level of the study had finished: nothing written in {out_dir}"
+        return f"no level of the study had finished: nothing written in {out_dir}", ""
     levels = "; ".join(", ".join(v) if s == "default" else f"{s}: {', '.join(v)}" for s, v in finished.items())
     count = sum(map(len, finished.values()))
-    write_report(out_dir, case, exact, tasks, collect_rows(tasks, results), reference,
-                 interrupted=f"interrupted: {count} of {len(tasks)} runs finished (levels {levels})")
+    what = f"{len(failed)} failed" if failed else "interrupted"
+    text = write_report(out_dir, case, exact, tasks, collect_rows(tasks, results), reference,
+                        incomplete=f"{what}: {count} of {len(tasks)} runs finished (levels {levels})",
+                        failures=[f"failed: {name}: {reason}" for name, reason in failed])
     plural = "s" if count > 1 else ""
     return (f"finished level{plural} {levels} (of 0-{max(t.level for t in tasks)}) kept in "
-            f"{out_dir}/convergence.csv and convergence.md")
+            f"{out_dir}/convergence.csv and convergence.md"), text
 
 
 def collect_rows(tasks: list, results: list) -> list:
@@ -262,11 +272,12 @@ def _metrics_present(rows):
     return [m for m in METRICS if any(math.isfinite(r[m]) for r in rows)]
 
 
-def write_report(out_dir, case, exact, tasks, rows, reference, interrupted: str | None = None):
+def write_report(out_dir, case, exact, tasks, rows, reference, incomplete: str | None = None, failures=()):
     """convergence.csv, convergence.md (tables with observed orders) and the two log-log plots.
 
-    interrupted: the note heading the report of an interrupted study, which has no plots (quicker to stop;
-    those of an earlier study in the directory are removed: they would not match the tables)."""
+    incomplete: the note heading the report of an interrupted study or of one with failed runs (`failures`: a
+    line each), which has no plots (quicker to stop; those of an earlier study in the directory are removed:
+    they would not match the tables)."""
     columns = ["series", "level", "mesh", "cfl", "cells", "h", "steps", "time", *TIMING, *METRICS,
                "mass_error", "rho_min", "rho_max", "p_min"]
     with open(out_dir / "convergence.csv", "w", newline="") as f:
@@ -281,7 +292,8 @@ def write_report(out_dir, case, exact, tasks, rows, reference, interrupted: str 
                    "(which has no error of its own)")
     metrics = _metrics_present(rows)
     lines = [f"# Convergence study: {case['title'] or case.directory.name}", "",
-             *([f"**{interrupted}**", ""] if interrupted else []),
+             *([f"**{incomplete}**", "", *(f"- {line}" for line in failures), *([""] if failures else [])]
+               if incomplete else []),
              f"Case `{os.path.relpath(case.file)}`, reference: {against}.", "",
              "Each cell: error (observed order against the previous level). Run time = setup + "
              "time stepping, without output or measurement.", ""]
@@ -306,10 +318,10 @@ def write_report(out_dir, case, exact, tasks, rows, reference, interrupted: str 
               f"min pressure {min(r['p_min'] for r in rows):.3g}.", "",
               *(["Plots: `error_vs_h.png`, `error_vs_time.png`"
                  + (" and `frontier.png` (with the published reference figures)." if reference else "."), ""]
-                if not interrupted else [])]
+                if not incomplete else [])]
     text = "\n".join(lines)
     (out_dir / "convergence.md").write_text(text)
-    if interrupted:
+    if incomplete:
         for name in PLOTS:
             (out_dir / name).unlink(missing_ok=True)
         return text

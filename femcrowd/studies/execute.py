@@ -21,30 +21,32 @@ class StudyInterrupted(KeyboardInterrupt):
         self.results = results
 
 
-def execute(function, tasks: list, serial: bool = False, scheduler: str | None = None, echo=None) -> list:
+def execute(function, tasks: list, serial: bool = False, scheduler: str | None = None, echo=None,
+            keep_going: bool = False) -> list:
     """function(task) for every task, results in task order; through dask unless serial.
 
     Bigger runs are submitted with higher priority so that the longest one starts first.
-    An InputError raised in a worker comes back as the same one-line error. Each task runs
+    An InputError raised in a worker comes back as the same one-line error; with keep_going, a task that
+    raises any error gives the result ``{"failed": one-line reason}`` and the others go on. Each task runs
     with one BLAS/OpenMP thread, in a dask worker as in this process: the workers share the
     cores, and run times measured either way are the same kind of number. Ctrl-C stops the
     runs under way and raises StudyInterrupted with the results of those that finished.
     """
-    function = _catching(function)
+    function = _catching(function, keep_going)
     results = [None] * len(tasks)
     try:
         if serial:
             for i, task in enumerate(tasks):
-                results[i] = _unwrap(function(task))
+                results[i] = _unwrap(function(task), keep_going)
                 _echo(echo, task, results[i])
         else:
-            _distributed(function, tasks, scheduler, results, echo)
+            _distributed(function, tasks, scheduler, results, echo, keep_going)
     except KeyboardInterrupt:
         raise StudyInterrupted(results) from None
     return results
 
 
-def _distributed(function, tasks, scheduler, results, echo):
+def _distributed(function, tasks, scheduler, results, echo, keep_going):
     """Fill results[i] = function(tasks[i]) through dask, in the order the runs finish."""
     import dask
     from dask.distributed import Client, LocalCluster, as_completed
@@ -74,7 +76,13 @@ def _distributed(function, tasks, scheduler, results, echo):
         index = {f.key: i for i, f in enumerate(futures)}
         for future in as_completed(futures):
             i = index[future.key]
-            results[i] = _unwrap(future.result())
+            try:
+                result = future.result()
+            except Exception as err:   # the worker itself lost (killed, out of memory): that task alone
+                if not keep_going:
+                    raise
+                result = failure(err)
+            results[i] = _unwrap(result, keep_going)
             _echo(echo, tasks[i], results[i])
     except KeyboardInterrupt:
         if cluster is not None:   # the runs under way are dropped: stop their workers now (not after 4 s)
@@ -119,25 +127,43 @@ def _in_worker(function):
     return wrapped
 
 
-def _unwrap(result):
-    if "input_error" in result:
+def _unwrap(result, keep_going):
+    if "input_error" in result and not keep_going:
         raise InputError(*result["input_error"])
     return result
 
 
+def describe(task) -> str:
+    """A task as the study's lines name it: a sweep member's values, a convergence run's series and level."""
+    return task.series if task.out else f"{task.series}, level {task.level} ({task.mesh})"
+
+
 def _echo(echo, task, result):
-    if echo is not None:
-        what = task.series if task.out else f"{task.series}, level {task.level} ({task.mesh})"
-        echo(f"  done: {what}: {result.get('wall_seconds', result.get('wall', 0.0)):.2f} s")
+    if echo is None:
+        return
+    if "failed" in result:
+        echo(f"  failed: {describe(task)}: {result['failed']}")
+    else:
+        echo(f"  done: {describe(task)}: {result.get('wall_seconds', result.get('wall', 0.0)):.2f} s")
 
 
-def _catching(function):
+def failure(err: Exception) -> dict:
+    """The result of a task that raised `err`: its one-line reason (an InputError names file, key and value)."""
+    text = " ".join(str(err).split()) or "(no message)"
+    return {"failed": text if isinstance(err, InputError) else f"{type(err).__name__}: {text}"}
+
+
+def _catching(function, keep_going):
     """function(task) with one BLAS thread; an InputError becomes a picklable result (InputError does
-    not unpickle)."""
+    not unpickle), and with keep_going any other error too."""
     def wrapped(task):
         try:
             with thread_limit(1):
                 return function(task)
         except InputError as err:
-            return {"input_error": (err.file, err.key, err.value, err.message)}
+            return {"input_error": (err.file, err.key, err.value, err.message), **failure(err)}
+        except Exception as err:
+            if not keep_going:
+                raise
+            return failure(err)
     return wrapped

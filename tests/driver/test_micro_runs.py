@@ -11,7 +11,7 @@ from femcrowd.driver.reading import read_history
 from femcrowd.errors import InputError
 from femcrowd.studies.compare import compare
 
-from ..support import CASES, assert_time_accounted
+from ..support import CASES, assert_phases_within_wall
 
 
 def run_micro(case, out):
@@ -31,7 +31,7 @@ def test_shipped_micro_case_outputs_and_invariants(tmp_path):
     assert h["max_overlap"].max() <= 1e-9 * 0.2
     assert summary["discs_outside"] == 0
     timing = dict(summary["timing"])
-    assert_time_accounted(timing)
+    assert_phases_within_wall(timing)
     assert h["contacts"].max() > 0                                            # a real jam forms
     # frames every 10 s, the last one at the end of the run: t = 40 s, or earlier if the
     # arch at the door gives way (frictionless discs: whether a marginal arch holds depends
@@ -107,7 +107,9 @@ def test_compare_narrow_door_macro_evacuates_faster(tmp_path):
     rows = result["rows"]
     assert rows[0]["macro_inside"] == pytest.approx(rows[0]["micro_inside"])   # same crowd
     assert result["macro"]["evacuation_time"] is not None and result["macro"]["evacuation_time"] < 12
-    assert rows[-1]["micro_inside"] > 0.25 * rows[0]["micro_inside"]          # jammed at the door
+    # jammed at the door: not one sampling's outcome, a margin that holds over all (seeds 1 to 5 of README.md
+    # keep 54-58 of the 72 discs inside at 10 s, 31-44 at 20 s)
+    assert rows[-1]["micro_inside"] > 0.25 * rows[0]["micro_inside"]
     assert all(r["macro_inside"] <= r["micro_inside"] + 1e-9 for r in rows)
     w2 = [r["w2"] for r in rows if r["macro_inside"] > 1 and r["micro_inside"] > 0]
     assert w2 and all(np.isfinite(w2)) and w2[0] < 0.5                        # same initial crowd

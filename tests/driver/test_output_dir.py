@@ -45,7 +45,7 @@ def start(case, out, *args):
     """A `femcrowd run` process, returned once it has written its first frame (it holds the directory)."""
     proc = subprocess.Popen([str(FEMCROWD), "run", str(case), "--out", str(out), "-q", *args],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 60
+    deadline = time.monotonic() + 300   # a bound for a hang, whatever the machine's load
     while not (out / "checkpoint.npz").is_file():
         assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
         time.sleep(0.02)

@@ -24,7 +24,7 @@ from .test_discs import crowd_in_room_with_door, pairwise_min_gap
 
 #: the value of docs/micro.md ("Arch-breaking fluctuation"): all discs through a 0.5 m door
 CHOSEN = 2.5
-#: an 8 x 5 m room, 72 discs of radius 0.2 m, a 0.8 m door: the pushing discs jam it for good
+#: an 8 x 5 m room, 72 discs of radius 0.2 m, a 0.8 m door: the pushing discs jam it (for how long is chaotic)
 DOOR = CASES / "narrow-door-micro"
 #: what a run records about how its solver went, not about the discs
 SOLVER_TIME = {"step_seconds"}
@@ -114,15 +114,27 @@ def test_free_discs_spread_alike_at_any_time_step():
         assert abs(sim.fluctuation.xi.std() / sigma - 1) < 0.02
 
 
+def inside_at(history, t: float) -> int:
+    """The discs inside at time t (the last count of a run that ended before)."""
+    return int(history["count"][min(np.searchsorted(history["time"], t - 1e-9), len(history["count"]) - 1)])
+
+
+@pytest.mark.slow
 def test_the_chosen_fluctuation_frees_a_jammed_door():
-    """cases/narrow-door-micro: the pushing discs hold an arch at the 0.8 m door for good; with the chosen
-    fluctuation they all get out, with no overlap."""
-    jammed = run_case(DOOR, **{"time.end": 40.0})
-    h = jammed.history
-    assert h["count"][-1] > 10 and np.all(h["count"][h["time"] >= 34.0] == h["count"][-1])  # stuck since 34 s
-    free = run_case(DOOR, **{"time.end": 120.0, "micro.fluctuation": CHOSEN})
-    assert free.history["count"][-1] == 0 and free.summary["evacuated"] == h["count"][0]
-    assert free.history["overlap_r"].max() <= 1e-9 and h["overlap_r"].max() <= 1e-9
+    """cases/narrow-door-micro over the samplings micro.seed = 1 to 5: which arch holds at the 0.8 m door, and for
+    how long, is chaotic (round-off on another machine changes it: docs/micro.md), so only statistics with wide
+    margins are asserted. The pushing discs jam: in some sampling more than 10 still inside at 40 s (here 2 of
+    5); with the chosen fluctuation every sampling empties the room (here by 39 to 78 s, of 120), the discs
+    inside at 20 s, over the five, fewer than 0.6 of those without (here 79 against 186); no overlap in any
+    run."""
+    paper, free = [], []
+    for seed in range(1, 6):
+        paper.append(run_case(DOOR, **{"time.end": 40.0, "micro.seed": seed}).history)
+        free.append(run_case(DOOR, **{"time.end": 120.0, "micro.seed": seed, "micro.fluctuation": CHOSEN}).history)
+    assert max(h["count"][-1] for h in paper) > 10
+    assert all(h["count"][-1] == 0 and h["count"][0] == p["count"][0] for h, p in zip(free, paper))
+    assert sum(inside_at(h, 20.0) for h in free) < 0.6 * sum(inside_at(h, 20.0) for h in paper)
+    assert max(h["overlap_r"].max() for h in paper + free) <= 1e-9
 
 
 def interrupt_after(monkeypatch, steps):

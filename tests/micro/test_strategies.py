@@ -71,18 +71,31 @@ def test_density_seen_and_speed_law():
     assert PACKING == pytest.approx(0.9069, abs=1e-4)
 
 
-def test_counterflow_push_gridlocks_bypass_crosses():
-    """cases/counterflow-micro (two groups at 0.3 in a 3 m corridor), its sampling (seed 1): pushing discs lock
-    in the middle, discs that bypass the slower people they see all reach their exits (in seeds 2 and 3 the pushing
-    discs' lock gives way: docs/extensions.md)."""
-    outcome = {}
-    for strategy, end in (("push", 30.0), ("bypass", 40.0)):
-        case = load_case(CASES / "counterflow-micro", {"micro.strategy": strategy, "time.end": end})
-        summary = Simulation(case).run().summary
-        outcome[strategy] = {name: p["evacuated"] / p["initial_count"] for name, p in summary["populations"].items()}
-        assert summary["max_overlap_r"] <= 1e-9
-    assert max(outcome["push"].values()) == 0.0
-    assert min(outcome["bypass"].values()) == 1.0, outcome
+def counterflow(strategy: str, end: float, seed: int = 1) -> dict:
+    """cases/counterflow-micro (two groups at 0.3 in a 3 m corridor) with this strategy and sampling: the share
+    of each group out by `end`; no overlap at any step."""
+    case = load_case(CASES / "counterflow-micro", {"micro.strategy": strategy, "time.end": end, "micro.seed": seed})
+    summary = Simulation(case).run().summary
+    assert summary["max_overlap_r"] <= 1e-9
+    return {name: p["evacuated"] / p["initial_count"] for name, p in summary["populations"].items()}
+
+
+def test_counterflow_bypass_crosses():
+    """Discs that bypass the slower people they see all reach their exits (every sampling of docs/extensions.md,
+    the last one out by 31 to 38 s; here the case's sampling, given 60 s)."""
+    assert min(counterflow("bypass", 60.0).values()) == 1.0
+
+
+@pytest.mark.slow
+def test_counterflow_push_gridlocks_in_some_samplings_bypass_crosses_in_all():
+    """Over the samplings micro.seed = 1 to 5: whether pushing discs lock in the middle is chaotic (the sampling,
+    even round-off), so only what holds with a margin is asserted: they lock for good (nobody out in 30 s) in
+    some sampling (here 3 of 5), and leave fewer than the discs that bypass, who all cross in every sampling."""
+    push = [counterflow("push", 30.0, seed) for seed in range(1, 6)]
+    bypass = [counterflow("bypass", 60.0, seed) for seed in range(1, 6)]
+    assert any(max(out.values()) == 0.0 for out in push)
+    assert all(min(out.values()) == 1.0 for out in bypass)
+    assert sum(sum(out.values()) for out in push) < 0.8 * sum(sum(out.values()) for out in bypass)
 
 
 def test_two_groups_micro_outputs(tmp_path):

@@ -47,3 +47,73 @@ def test_an_interrupted_sweep_keeps_its_finished_runs_and_says_so(tmp_path, monk
                              "kept (the study's table is not written: run it again)\n")
     summary = json.loads((Path(finished[0]["output_dir"]) / "summary.json").read_text())
     assert summary["status"] == "completed"
+
+
+def sweep_with_a_bad_mesh(tmp_path, *options):
+    """`femcrowd sweep` of the corridor on its mesh and on a file that is no mesh: the second member fails."""
+    from click.testing import CliRunner
+
+    from femcrowd.cli import main
+
+    (tmp_path / "bad.msh").write_text("not a mesh\n")
+    meshes = f'mesh.file=["{tmp_path / "bad.msh"}", "{CASES.parent / "meshes" / "corridor.msh"}"]'
+    return CliRunner().invoke(main, ["sweep", str(CASES / "corridor-wall"), "--set-values", meshes, "--set",
+                                     "time.end=0.2", "--set", "output.every=0.2", "--out", str(tmp_path / "sweep"),
+                                     *options])
+
+
+def check_failed_member_is_tabulated(tmp_path, result):
+    """The finished member is in sweep.csv, sweep.json and sweep.md with its summary, the failed one with its
+    one-line reason; the table is printed, then one line on stderr; exit code 1, no traceback."""
+    assert result.exit_code == 1, result.output
+    assert "Traceback" not in result.output
+    root = tmp_path / "sweep"
+    with open(root / "sweep.csv") as f:
+        bad, good = csv.DictReader(f)
+    assert bad["status"] == "failed" and "cannot read a gmsh .msh" in bad["reason"] and bad["steps"] == ""
+    assert good["status"] == "completed" and good["reason"] == "" and float(good["mass_error"]) < 1e-10
+    assert json.loads((Path(good["output_dir"]) / "summary.json").read_text())["status"] == "completed"
+    assert [r["status"] for r in json.loads((root / "sweep.json").read_text())] == ["failed", "completed"]
+    text = (root / "sweep.md").read_text()
+    assert "**1 of 2 runs failed:**" in text and f'- mesh.file="{tmp_path / "bad.msh"}": ' in text
+    assert text in result.stdout
+    [line] = result.stderr.splitlines()
+    assert line.startswith("femcrowd: error: 1 of 2 sweep runs failed (mesh.file=") and \
+        line.endswith(f"the table of all of them: {root}/sweep.csv and sweep.md")
+
+
+def test_a_failed_member_leaves_the_others_tabulated(tmp_path):
+    """One member on a file that is no mesh, in this process: the other still runs and the sweep is written
+    (it used to stop at the failure and write no table)."""
+    check_failed_member_is_tabulated(tmp_path, sweep_with_a_bad_mesh(tmp_path, "--serial"))
+
+
+def test_a_failed_member_leaves_the_others_tabulated_through_dask(tmp_path):
+    """The same through a dask scheduler (in-process workers, as test_dask_gives_the_serial_numbers)."""
+    import dask
+    from dask.distributed import LocalCluster
+
+    with dask.config.set({"temporary-directory": str(tmp_path)}), \
+            LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=":0") as cluster:
+        result = sweep_with_a_bad_mesh(tmp_path, "--scheduler", cluster.scheduler_address)
+    check_failed_member_is_tabulated(tmp_path, result)
+
+
+def test_an_interrupted_sweep_does_not_count_a_failed_member_as_finished(tmp_path, monkeypatch):
+    """The first member fails, Ctrl-C in the second: no run finished (a failed one is not counted)."""
+    from click.testing import CliRunner
+
+    import femcrowd.studies.sweep as module
+    from femcrowd.cli import main
+
+    def fail_then_interrupt(task):
+        if task.values["scheme.transport"] == "upwind":
+            raise RuntimeError("no step")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(module, "sweep_task", fail_then_interrupt)
+    result = CliRunner().invoke(main, ["sweep", str(CASES / "corridor-wall"), "--set-values",
+                                       "scheme.transport=upwind,muscl", "--serial", "--out", str(tmp_path / "sweep")])
+    assert result.exit_code == 130, result.output
+    assert result.stdout == "  failed: scheme.transport=upwind: RuntimeError: no step\n"
+    assert result.stderr.startswith("femcrowd: interrupted; 0 of the study's 2 runs finished")
