@@ -21,10 +21,10 @@ import numpy as np
 from ..case import load_case
 from ..driver import Simulation
 from ..driver.output import prepare_output_dir
-from ..errors import InputError
+from ..errors import InputError, Interrupted, StudyFailed
 from ..timer import Stopwatch
 from .convergence import plan_study
-from .execute import execute
+from .execute import StudyInterrupted, describe, execute
 
 #: the shares of the crowd out whose times are measured; the last one is all but time.empty_fraction
 SHARES = (0.5, 0.9, 0.99)
@@ -80,7 +80,10 @@ def observed(values, h) -> tuple[list, list, list]:
 
 def study(case_dir, levels: int, out=None, overrides=(), cfls=(), set_values=(), serial: bool = False,
           scheduler: str | None = None, force: bool = False, echo=None) -> tuple[list, str, object]:
-    """Run the refinement series and write evacuation.csv and evacuation.md; (rows, report text, directory)."""
+    """Run the refinement series and write evacuation.csv and evacuation.md; (rows, report text, directory).
+
+    A level that fails or is not reached (Ctrl-C) has no times (nan); the others are tabulated, and StudyFailed
+    or Interrupted then says which did not finish, as in a convergence study."""
     base, _, tasks = plan_study(case_dir, levels, overrides, cfls, set_values)
     if base["model"]["type"] != "macro":
         raise InputError(base.file, "model.type", base["model"]["type"],
@@ -88,18 +91,34 @@ def study(case_dir, levels: int, out=None, overrides=(), cfls=(), set_values=(),
     if not base["boundary"]["exits"]:
         raise InputError(base.file, "boundary.exits", [], "a scene without exits has no evacuation time")
     out_dir = prepare_output_dir(base.output_dir(out, "evacuation"), base.file, force)
-    results = execute(run_level, tasks, serial, scheduler, echo=echo)
+    try:
+        results = execute(run_level, tasks, serial, scheduler, echo=echo, keep_going=True)
+        stopped = None
+    except StudyInterrupted as stop:
+        results, stopped = stop.results, stop
     names = share_names(base)
     rows = [{"series": t.series, "level": t.level, "mesh": t.mesh, "cfl": t.cfl,
-             **{k: r[k] for k in ("cells", "h", "steps", "wall_seconds")},
-             **{f"t {name}": v for name, v in zip(names, r["times"])}} for t, r in zip(tasks, results)]
+             **({k: r[k] for k in ("cells", "h", "steps", "wall_seconds")} if _finished(r) else
+                {"cells": 0, "h": math.nan, "steps": 0, "wall_seconds": math.nan}),
+             **{f"t {name}": v for name, v in zip(names, r["times"] if _finished(r) else [math.nan] * len(names))}}
+            for t, r in zip(tasks, results)]
     with open(out_dir / "evacuation.csv", "w", newline="") as f:
         writer = csv.DictWriter(f, list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
-    text = report(base, rows, names)
+    failed = [(describe(t), r["failed"]) for t, r in zip(tasks, results) if r is not None and "failed" in r]
+    text = report(base, rows, names) + "".join(f"\nfailed: {name}: {reason}" for name, reason in failed)
     (out_dir / "evacuation.md").write_text(text)
+    kept = f"the finished levels kept in {out_dir}/evacuation.md and evacuation.csv"
+    if stopped is not None:
+        raise Interrupted(kept) from None
+    if failed:
+        raise StudyFailed(f"{len(failed)} of {len(tasks)} runs failed ({failed[0][0]}: {failed[0][1]}); {kept}", text)
     return rows, text, out_dir
+
+
+def _finished(result) -> bool:
+    return result is not None and "failed" not in result
 
 
 def report(case, rows, names) -> str:
@@ -114,8 +133,8 @@ def report(case, rows, names) -> str:
         head = ["level", "cells", "h (m)", "steps", "run time (s)"] + [f"t {n}" for n in names]
         lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
         for r in mine:
-            lines.append("| " + " | ".join([str(r["level"]), str(r["cells"]), f"{r['h']:.3g}", str(r["steps"]),
-                                             f"{r['wall_seconds']:.3g}"] + [_time(r[f"t {n}"]) for n in names])
+            lines.append("| " + " | ".join([str(r["level"]), str(r["cells"]), _number(r["h"]), str(r["steps"]),
+                                             _number(r["wall_seconds"])] + [_time(r[f"t {n}"]) for n in names])
                          + " |")
         lines += ["", "| share out | " + " | ".join(f"level {r['level']}: d (p)" for r in mine[1:])
                   + " | t* |", "|" + "---|" * (len(mine) + 1)]
@@ -131,3 +150,7 @@ def report(case, rows, names) -> str:
 
 def _time(t) -> str:
     return f"{t:.2f}" if math.isfinite(t) else "-"
+
+
+def _number(x) -> str:
+    return f"{x:.3g}" if math.isfinite(x) else "-"

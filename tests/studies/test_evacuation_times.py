@@ -53,3 +53,26 @@ def test_a_micro_case_is_refused_in_one_line(tmp_path):
                                        "--out", str(tmp_path / "t")])
     assert result.exit_code == 2 and "model.type" in result.output and result.output.count("\n") == 1
     assert not (tmp_path / "t").exists()
+
+
+def test_a_failed_level_leaves_the_others_tabulated(tmp_path, monkeypatch):
+    """Level 1 of 3 raises: levels 0 and 2 keep their times, level 1 has none and its one-line reason; exit 1."""
+    from femcrowd.macro.projection.lcp import ProjectionError
+    from femcrowd.studies import evacuation
+
+    run_level = evacuation.run_level
+
+    def failing_at_level_1(task):
+        if task.level == 1:
+            raise ProjectionError("no convergence\nin 50 iterations")
+        return run_level(task)
+    monkeypatch.setattr(evacuation, "run_level", failing_at_level_1)
+    result = CliRunner().invoke(main, ["evacuation-times", str(CASES / "saturated-exit"), "--levels", "3",
+                                       "--serial", "--set", "time.end=1.0", "--out", str(tmp_path)])
+    assert result.exit_code == 1 and "Traceback" not in result.output
+    assert result.stderr.count("\n") == 1 and "1 of 3 runs failed" in result.stderr
+    report = (tmp_path / "evacuation.md").read_text()
+    assert "failed: default, level 1 (channel_exit.msh refine 1): ProjectionError: no convergence in 50" in report
+    rows = report.split("## default")[1].splitlines()
+    level = {r.split("|")[1].strip(): r for r in rows if r.startswith("| ") and r.split("|")[1].strip().isdigit()}
+    assert set(level) == {"0", "1", "2"} and "| 0.37 |" in level["2"] and "| - |" in level["1"]
