@@ -243,7 +243,7 @@ def observed_orders(rows: list, metric: str) -> dict:
         group = list(group)
         for prev, row in zip(group, group[1:]):
             e0, e1 = abs(prev[metric]), abs(row[metric])
-            ok = e0 > 0 and e1 > 0 and math.isfinite(e0) and math.isfinite(e1)
+            ok = e0 > 0 and e1 > 0 and math.isfinite(e0) and math.isfinite(e1) and prev["h"] != row["h"]
             orders[(row["series"], row["time"], row["level"])] = \
                 math.log(e0 / e1) / math.log(prev["h"] / row["h"]) if ok else math.nan
     return orders

@@ -141,3 +141,9 @@ def test_higher_order_transports_beat_upwind_on_the_corridor():
 def test_a_study_refuses_a_cfl_above_the_transport_limit(transport):
     with pytest.raises(InputError, match="time.cfl"):
         plan_study(CASES / "radial", 2, cfls=(0.5, 0.8), set_values=[f"scheme.transport={transport}"])
+
+
+def test_levels_of_equal_h_have_no_order():
+    """The same mesh listed twice in [convergence] meshes: no order between them (not a ZeroDivisionError)."""
+    rows = [{"series": "default", "time": 1.0, "level": k, "h": 0.1, "l1": e} for k, e in enumerate((0.2, 0.1))]
+    assert math.isnan(observed_orders(rows, "l1")[("default", 1.0, 1)])
