@@ -9,6 +9,7 @@ import os
 from pathlib import Path
 
 from ..errors import InputError
+from ..files import make_directory, write_text
 from .loading import toml_value
 from .schema import SCHEMA
 
@@ -47,8 +48,7 @@ def write_new_case(file: Path, mesh_file, domain) -> None:
     case_dir, mesh_file = file.parent, Path(mesh_file)
     text = "".join((f"{line[0]:<30}  # {line[1]}" if isinstance(line, tuple) else line) + "\n"
                    for line in _case_lines(case_dir, mesh_file, domain))
-    case_dir.mkdir(parents=True, exist_ok=True)
-    file.write_text(text)
+    write_text(make_directory(case_dir) / file.name, text, sync=True)
 
 
 def _case_lines(case_dir, mesh_file, domain) -> list:

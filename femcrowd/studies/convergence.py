@@ -30,6 +30,7 @@ from ..driver import Simulation
 from ..driver.output import prepare_output_dir
 from ..driver.scene import check_transport_cfl
 from ..errors import InputError, Interrupted
+from ..files import replaced, write_text
 from ..macro.transport import TRANSPORTS
 from ..mesh import Domain
 from ..plot.convergence import error_plot
@@ -269,7 +270,7 @@ def write_report(out_dir, case, exact, tasks, rows, reference, interrupted: str 
     those of an earlier study in the directory are removed: they would not match the tables)."""
     columns = ["series", "level", "mesh", "cfl", "cells", "h", "steps", "time", *TIMING, *METRICS,
                "mass_error", "rho_min", "rho_max", "p_min"]
-    with open(out_dir / "convergence.csv", "w", newline="") as f:
+    with replaced(out_dir / "convergence.csv", sync=True) as tmp, open(tmp, "w", newline="") as f:
         writer = csv.DictWriter(f, columns, extrasaction="ignore")
         writer.writeheader()
         writer.writerows(rows)
@@ -308,7 +309,7 @@ def write_report(out_dir, case, exact, tasks, rows, reference, interrupted: str 
                  + (" and `frontier.png` (with the published reference figures)." if reference else "."), ""]
                 if not interrupted else [])]
     text = "\n".join(lines)
-    (out_dir / "convergence.md").write_text(text)
+    write_text(out_dir / "convergence.md", text, sync=True)
     if interrupted:
         for name in PLOTS:
             (out_dir / name).unlink(missing_ok=True)

@@ -8,6 +8,7 @@ from ..case import load_case
 from ..driver import run
 from ..driver.output import prepare_output_dir, write_json
 from ..errors import InputError
+from ..files import replaced, write_text
 from .convergence import Task, parse_set_values
 from .execute import execute
 
@@ -48,7 +49,7 @@ def sweep(case_dir, set_values, out=None, overrides=(), serial: bool = False, sc
     keys = list(tasks[0].values)
     rows = [{**t.values, **r} for t, r in zip(tasks, results)]
     columns = keys + list(SUMMARY_COLUMNS) + ["output_dir"]
-    with open(root / "sweep.csv", "w", newline="") as f:
+    with replaced(root / "sweep.csv", sync=True) as tmp, open(tmp, "w", newline="") as f:
         writer = csv.DictWriter(f, columns)
         writer.writeheader()
         writer.writerows(rows)
@@ -57,6 +58,6 @@ def sweep(case_dir, set_values, out=None, overrides=(), serial: bool = False, sc
              "| " + " | ".join(columns[:-1]) + " |", "|" + "---|" * (len(columns) - 1)]
     lines += ["| " + " | ".join(fmt(r[c]) for c in columns[:-1]) + " |" for r in rows]
     text = "\n".join(lines) + "\n"
-    (root / "sweep.md").write_text(text)
+    write_text(root / "sweep.md", text, sync=True)
     write_json(root / "sweep.json", rows)
     return rows, text, root

@@ -18,6 +18,7 @@ from femcrowd.cli import main
 from femcrowd.driver.output import MARKER
 from femcrowd.driver.ownership import LOCK, RunLock, reading
 from femcrowd.driver.reading import read_frame, read_history, read_pvd
+from femcrowd.files import TEMPORARY
 
 from ..support import CASES, FEMCROWD
 
@@ -192,7 +193,7 @@ def test_a_full_disk_stops_the_run_resumable(tmp_path, monkeypatch, where):
     assert result.exit_code == 2
     name = "solution_00003.vtu" if where == "frame" else "checkpoint.npz"
     one_line(result.stderr, out / name, "No space left on device")
-    assert not list(out.glob("*.tmp")) and not list(out.glob(".*.tmp"))
+    assert not list(out.glob("*.tmp")) and not list(out.glob(TEMPORARY))
     with np.load(out / "checkpoint.npz") as data:   # the one of frame 2, whole
         assert float(data["state/t"]) == 0.5
     monkeypatch.undo()
