@@ -154,6 +154,18 @@ def test_no_write_follows_a_link_on_resume(tmp_path):
     assert np.allclose(ha["mass"], hb["mass"], rtol=1e-10) and len(ha["time"]) == len(hb["time"])
 
 
+def test_a_link_at_a_file_name_is_refused(tmp_path):
+    """--force into a directory not written by femcrowd, holding a link named summary.json: the run stops with
+    one line naming it (before: the link was replaced), its target untouched."""
+    out = tmp_path / "out"
+    out.mkdir()
+    targets = plant(out, ["summary.json"], tmp_path)
+    result = invoke("run", QUICK, "--out", out, "-q", "--force", "--set", "time.end=0.25")
+    assert result.exit_code == 2
+    one_line(result.stderr, out / "summary.json", "symbolic link")
+    assert {t: t.read_bytes() for t in targets} == targets and (out / "summary.json").is_symlink()
+
+
 def test_a_link_as_the_lock_is_refused(tmp_path):
     out = tmp_path / "out"
     assert invoke("run", QUICK, "--out", out, "-q", "--set", "time.end=0.25").exit_code == 0
