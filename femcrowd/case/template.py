@@ -13,6 +13,7 @@ import os
 from pathlib import Path
 
 from ..errors import InputError
+from ..files import make_directory, write_text
 from ..studies.recommended import DOOR_CAPACITY, FLUCTUATION, PUSH
 from .loading import toml_value
 from .schema import SCHEMA
@@ -60,8 +61,7 @@ def write_new_case(file: Path, mesh_file, domain, model: str = "recommended") ->
     if model == "recommended":
         lines = _recommended(lines, domain)
     text = "".join((f"{line[0]:<30}  # {line[1]}" if isinstance(line, tuple) else line) + "\n" for line in lines)
-    case_dir.mkdir(parents=True, exist_ok=True)
-    file.write_text(text)
+    write_text(make_directory(case_dir) / file.name, text, sync=True)
 
 
 def _case_lines(case_dir, mesh_file, domain) -> list:

@@ -6,6 +6,7 @@ from pathlib import Path
 import click
 
 from ..errors import InputError
+from ..files import make_directory, write_text
 from ..timer import Stopwatch
 from .main import force_option, main, scheduler_option, serial_option, set_option, study_out_option
 
@@ -203,8 +204,7 @@ def rimea(out, only, models, seeds):
         raise click.BadParameter(str(err), param_hint="--only") from None
     rows = rm.run_all(only, models or rm.MODELS, out=out, echo=click.echo, seeds=seeds)
     table = rm.table_markdown(rows)
-    Path(out).mkdir(parents=True, exist_ok=True)
-    (Path(out) / "rimea.md").write_text(table)
+    write_text(make_directory(out) / "rimea.md", table, sync=True)
     click.echo("\n" + table)
     failed = sum(not v[0].passed for _, verdicts in rows for v in verdicts.values() if v is not None)
     click.echo(f"{len(rows)} tests, {failed} failed verdicts, in {clock.seconds:.0f} s; "

@@ -17,7 +17,7 @@ import numpy as np
 
 from .. import __version__
 from ..errors import InputError
-from .ownership import replaced
+from ..files import replaced
 
 NAME = "checkpoint.npz"
 

@@ -20,7 +20,8 @@ import meshio
 import numpy as np
 
 from ..errors import InputError
-from .ownership import LOCK, TEMPORARY, RunLock, appending, remove_temporaries, replaced, writing
+from ..files import TEMPORARY, appending, replaced, write_text, writing
+from .ownership import LOCK, RunLock
 
 log = logging.getLogger("femcrowd")
 
@@ -41,8 +42,8 @@ def prepare_output_dir(path, case_file, force=False) -> Path:
 def own_output_dir(path, case_file, force=False, resume=False) -> RunLock:
     """The output directory of a run, locked for it (ownership.RunLock) before anything in it changes: created,
     or cleared of an earlier femcrowd run; resume: the directory of the run to continue, kept as it is but for
-    the temporary files of a killed run. Refused with one line: a file, a foreign directory (unless force),
-    the case's own directory, a directory that another run is writing.
+    the temporary files of a killed run and links planted at the names of its files. Refused with one line: a
+    file, a foreign directory (unless force), the case's own directory, a directory that another run is writing.
 
     The marker that allows a later run to clear the directory is only left where
     femcrowd owns the directory (new, empty, or marked): after --force into a
@@ -57,7 +58,7 @@ def own_output_dir(path, case_file, force=False, resume=False) -> RunLock:
     if resume:
         lock = RunLock(path).acquire()
         with writing(path):
-            remove_temporaries(path)
+            _rewind(path)
         return lock
     if path.exists() and not path.is_dir():
         raise InputError(case_file, "output.dir", str(path), "exists and is not a directory")
@@ -79,6 +80,14 @@ def own_output_dir(path, case_file, force=False, resume=False) -> RunLock:
     return lock
 
 
+def _rewind(path) -> None:
+    """The directory of a run to resume: the temporary files of a killed run removed, and the links planted at
+    the names of the run's files (the run replaces these files; a link is removed, its target untouched)."""
+    for f in {f for pattern in RUN_FILES for f in path.glob(pattern)}:
+        if f.is_symlink() or f.match(TEMPORARY):
+            f.unlink()
+
+
 def _entries(path) -> list:
     return [p for p in path.iterdir() if p.name != LOCK]
 
@@ -94,13 +103,12 @@ def _clear(path) -> None:
                 if (path / "plots").is_dir() else ""
             log.warning("replacing the earlier run in %s: %d files%s", path, len(old), plots)
     elif not _entries(path):
-        (path / MARKER).write_text("written by femcrowd; safe to overwrite with a new run\n")
+        write_text(path / MARKER, "written by femcrowd; safe to overwrite with a new run\n")
 
 
 def write_json(path, data) -> None:
-    """Write JSON atomically (a reader never sees half a file; ownership.replaced)."""
-    with replaced(path) as tmp:
-        tmp.write_text(json.dumps(data, indent=2, default=_json_default) + "\n")
+    """Write JSON whole or not at all (files.replaced)."""
+    write_text(path, json.dumps(data, indent=2, default=_json_default) + "\n", sync=True)
 
 
 def _json_default(value):
@@ -142,8 +150,7 @@ class FrameSeries:
                          for t, f in self.frames)
         text = ('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1" '
                 f'byte_order="LittleEndian">\n  <Collection>\n{rows}\n  </Collection>\n</VTKFile>\n')
-        with replaced(self.directory / f"{self.stem}.pvd") as tmp:
-            tmp.write_text(text)
+        write_text(self.directory / f"{self.stem}.pvd", text)
 
 
 def triangle_frame(domain, cell_data) -> meshio.Mesh:
@@ -165,7 +172,7 @@ def disc_frame(q, r, u, pressure, extra=None) -> meshio.Mesh:
 
 class HistoryFile:
     """history.csv, one row per step, flushed so that an interrupted run keeps it; rows: those of the
-    steps already done (a resumed run), written with the header into a new file (ownership.replaced)."""
+    steps already done (a resumed run), written with the header into a new file (files.replaced)."""
 
     def __init__(self, path, columns, rows=()):
         self.path, self.columns = Path(path), columns

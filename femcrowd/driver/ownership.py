@@ -8,26 +8,20 @@
   checkpoint) it holds the directory itself exclusively too; ``femcrowd plot`` holds the directory shared
   while it reads, so that a new run does not pull files from under a plot, while a run in progress may
   be plotted (it only adds files, or replaces them whole).
-- Files are written under a name of their own (two writers never share a temporary, a reader never sees
-  half a file) and moved onto their name with os.replace, which replaces a link planted there instead of
-  writing through it; a file that grows (history.csv) is then reopened with O_NOFOLLOW.
-- A write that fails (disk full, permissions, a read-only file system) is one line naming the file
-  (InputError, exit 2); its temporary file is removed, the files written before (the last checkpoint)
-  are left as they were.
+- Files are written whole or not at all, never through a link (femcrowd/files.py); on --resume the links
+  planted at the names of the run's files are removed (their targets untouched), as a new run removes the
+  files of the run before it.
 """
 
-import errno
 import fcntl
 import os
-import uuid
-from contextlib import contextmanager, suppress
+from contextlib import contextmanager
 from pathlib import Path
 
 from ..errors import InputError
+from ..files import writing
 
 LOCK = ".femcrowd-lock"
-#: the temporary files of replaced(): .NAME.<12 hex digits>.tmp (left behind only by a killed run)
-TEMPORARY = ".*." + "?" * 12 + ".tmp"
 
 
 class RunLock:
@@ -98,46 +92,3 @@ def reading(directory):
         if fd is not None:
             os.close(fd)
 
-
-@contextmanager
-def writing(path):
-    """An OSError in the block (disk full, permissions, a read-only file system, a link where femcrowd
-    opens without following links) becomes one line naming `path` (InputError)."""
-    try:
-        yield
-    except OSError as err:
-        reason = ("it is a symbolic link (femcrowd writes no file through a link)" if err.errno == errno.ELOOP
-                  else err.strerror or str(err))
-        raise InputError(path, None, None, f"cannot write: {reason}") from None
-
-
-@contextmanager
-def replaced(path):
-    """Write `path` anew: the block gets the Path of an empty file of its own next to it, moved onto `path`
-    when the block ends (os.replace: a link planted at `path` is replaced, its target untouched), removed if
-    the block fails. Created with O_EXCL (never through a link, never another writer's); not
-    tempfile.mkstemp, whose files are private (0600): these get the user's umask like any file."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex[:12]}.tmp")
-    with writing(path):
-        os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o666))
-        try:
-            yield tmp
-            os.replace(tmp, path)
-        except BaseException:
-            with suppress(OSError):
-                tmp.unlink()
-            raise
-
-
-def appending(path, newline=None):
-    """`path` (just written with replaced()) open to add to its end, never through a link."""
-    with writing(path):
-        return os.fdopen(os.open(path, os.O_WRONLY | os.O_APPEND | os.O_NOFOLLOW | os.O_CLOEXEC), "a",
-                         newline=newline)
-
-
-def remove_temporaries(directory) -> None:
-    """The temporary files a killed run left (the directory's lock is held: nobody else writes them)."""
-    for tmp in Path(directory).glob(TEMPORARY):
-        tmp.unlink()

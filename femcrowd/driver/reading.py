@@ -14,6 +14,7 @@ import meshio
 import numpy as np
 
 from ..errors import InputError
+from ..files import complete
 from .output import disc_frame
 
 
@@ -53,7 +54,7 @@ class RunDirectory:
         self.directory = d = Path(directory)
         if not d.is_dir():
             raise InputError(d, None, None, "not a directory (give the output directory of a run)")
-        self.summary = json.loads((d / "summary.json").read_text()) if (d / "summary.json").is_file() else {}
+        self.summary = _summary(d / "summary.json") if (d / "summary.json").is_file() else {}
         self.history = read_history(d / "history.csv") if (d / "history.csv").is_file() else {}
         self.frames = {stem: read_pvd(d / f"{stem}.pvd") for stem in ("solution", "discs")
                        if (d / f"{stem}.pvd").is_file()}
@@ -68,7 +69,23 @@ class RunDirectory:
 
     def frame(self, stem: str, k: int) -> meshio.Mesh:
         """Frame k of a series (k = -1: the last)."""
-        return read_frame(self.directory / self.frames[stem][k][1])
+        return read_frame(self.frame_file(stem, k))
+
+    def frame_file(self, stem: str, k: int) -> Path:
+        """The file of frame k of a series, there and whole (it ends as a VTU file ends), else InputError naming
+        it: the reader is never handed a missing or truncated frame."""
+        t, name = self.frames[stem][k]
+        path = self.directory / name
+        where = f"frame {k % len(self.frames[stem])} of {stem}.pvd (t = {t:g} s)"
+        if not path.is_file():
+            raise InputError(path, None, None, f"{where} is missing")
+        try:
+            whole = complete(path)
+        except OSError as err:
+            raise InputError(path, None, None, f"{where} cannot be read: {err.strerror}") from None
+        if not whole:
+            raise InputError(path, None, None, f"{where} is incomplete (cut short: a full disk, an interrupted copy?)")
+        return path
 
     def inside(self):
         """(time, people inside) from history.csv, or None."""
@@ -83,6 +100,14 @@ class RunDirectory:
             return None
         below = np.flatnonzero(inside[1] <= fraction * inside[1][0])
         return float(inside[0][below[0]]) if len(below) else None
+
+
+def _summary(path) -> dict:
+    try:
+        return json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+        raise InputError(path, None, None, f"cannot read: not JSON ({err}): cut short, or not written by femcrowd?") \
+            from None
 
 
 def _case_copy(path):

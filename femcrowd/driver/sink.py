@@ -6,9 +6,9 @@ from contextlib import suppress
 from pathlib import Path
 
 from ..errors import InputError
+from ..files import write_text, writing
 from . import checkpoint
 from .output import FrameSeries, HistoryFile, own_output_dir, write_json
-from .ownership import replaced, writing
 
 
 class RunFiles:
@@ -23,8 +23,7 @@ class RunFiles:
         self.frames, self.sinks = None, []
         if directory is None:
             return
-        with replaced(directory / "case.toml") as tmp:
-            tmp.write_text(case.resolved_toml(directory))   # runs again on its own
+        write_text(directory / "case.toml", case.resolved_toml(directory))   # runs again on its own
         self.frames = FrameSeries(directory, model.stem, (position or {}).get("frames"))
         recorder.sink = HistoryFile(directory / "history.csv", recorder.history_columns, recorder.records())
         self.sinks.append(recorder.sink)

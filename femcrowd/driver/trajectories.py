@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 import shapely
 
+from ..files import appending, write_text, writing
 from ..mesh import Domain
 from ..mesh.outline import walkable_area
-from .ownership import appending, replaced, writing
 
 
 class TrajectoryFile:
@@ -24,8 +24,7 @@ class TrajectoryFile:
         """frame: the next frame of a resumed run (the rows of the later frames, written after its
         checkpoint, are dropped)."""
         directory = Path(directory)
-        with replaced(directory / "walkable_area.wkt") as tmp:
-            tmp.write_text(shapely.to_wkt(walkable_area(domain), rounding_precision=9) + "\n")
+        write_text(directory / "walkable_area.wkt", shapely.to_wkt(walkable_area(domain), rounding_precision=9) + "\n")
         self.rate = rate
         self.frame = frame or 0   # the next frame to write
         self.path = directory / "trajectories.txt"
@@ -33,8 +32,7 @@ class TrajectoryFile:
                                          if line.startswith("#") or int(line.split("\t")[1]) < frame]
         head = "" if frame is not None else (f"# framerate: {rate:g}\n# unit: m\n# written by femcrowd (disc model)\n"
                                              "# ID\tFR\tX\tY\tZ\n")
-        with replaced(self.path) as tmp:
-            tmp.write_text(head + "".join(kept))
+        write_text(self.path, head + "".join(kept))
         self._file = appending(self.path)
 
     def start(self, t: float, ids: np.ndarray, q: np.ndarray) -> None:

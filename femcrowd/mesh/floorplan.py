@@ -21,6 +21,7 @@ import gmsh
 import numpy as np
 
 from ..errors import InputError
+from ..files import make_directory, replaced
 from .cad import read_plan
 from .plan import PlanReader, polygon_edges, read_toml_plan
 
@@ -60,8 +61,9 @@ def build_mesh(geometry_file, out=None, refine_exits=None, gmsh_options=None, ca
     ``Mesh.Algorithm`` 6, with ``Mesh.Smoothing`` 5), e.g. for benchmarks.
     cad: options of the DXF / WKT reader (mesh/cad.py: layer names, size, extra exits, units, wall thickness).
     require_exits: a plan without an exit is an error (``femcrowd mesh`` without ``--no-exits``).
-    Raises InputError for a bad floor plan or output path, before meshing; the mesh is written to a temporary
-    file next to `out` and renamed, so that a failure never leaves a half-written `out`.
+    Raises InputError for a bad floor plan or output path, before meshing; the mesh is written whole or not
+    at all (files.replaced: gmsh does not report a full disk, the file's last section is checked), so that a
+    failure leaves the `out` there was.
     """
     geometry_file = pathlib.Path(geometry_file)
     out = pathlib.Path(out) if out is not None else geometry_file.with_suffix(".msh")
@@ -91,17 +93,11 @@ def build_mesh(geometry_file, out=None, refine_exits=None, gmsh_options=None, ca
         for option, value in {**options, **(gmsh_options or {})}.items():
             gmsh.option.setNumber(option, value)
         gmsh.model.mesh.generate(2)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        partial = out.with_name(f".{out.stem}.partial.msh")
-        try:
-            gmsh.write(str(partial))
-            partial.replace(out)
-        except Exception as err:   # gmsh raises Exception
-            partial.unlink(missing_ok=True)
-            raise InputError(out, None, None, f"cannot write the mesh: {getattr(err, 'strerror', None) or err}") \
-                from None
-    except OSError as err:   # the directory
-        raise InputError(out, None, None, f"cannot write the mesh: {err.strerror or err}") from None
+        with replaced(make_directory(out.parent) / out.name, sync=True) as tmp:
+            try:
+                gmsh.write(str(tmp))
+            except Exception as err:   # gmsh raises Exception; on a full disk it may write part and say nothing
+                raise InputError(out, None, None, f"cannot write the mesh: {err}") from None
     finally:
         gmsh.finalize()
     return out

@@ -4,6 +4,8 @@ import os
 
 import numpy as np
 
+from ..files import replaced
+
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")  # before vtk creates a window
 import pyvista as pv  # noqa: E402
 
@@ -214,8 +216,10 @@ class Canvas:
         return self.plotter.screenshot(return_img=True)
 
     def save(self, path):
+        """The picture as a PNG, whole or not at all (files.replaced)."""
         self.plotter.render()
-        self.plotter.screenshot(str(path))
+        with replaced(path) as tmp:
+            self.plotter.screenshot(str(tmp))
 
     def close(self):
         self.plotter.close()

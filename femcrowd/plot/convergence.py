@@ -4,6 +4,8 @@ import math
 
 import numpy as np
 
+from ..files import save_figure
+
 
 def error_plot(path, rows, metrics, x, xlabel, title, slopes=False, reference=None, size=(4.2, 3.6)):
     """One log-log panel per metric (metrics: {metric: its title}), one line per series of the rows, against the
@@ -44,7 +46,7 @@ def error_plot(path, rows, metrics, x, xlabel, title, slopes=False, reference=No
         ax.set_visible(False)
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path)
     plt.close(fig)
 
 

@@ -11,6 +11,7 @@
 import numpy as np
 
 from ..driver.reading import read_history
+from ..files import save_figure
 
 #: Fruin's levels of service for walkways: upper densities (persons/m^2) of A..E, F above, and their colours
 FRUIN = (0.31, 0.43, 0.72, 1.08, 2.17)
@@ -54,8 +55,7 @@ def lines(run, m, path):
     for a in ax:
         a.grid(alpha=0.3)
         a.legend()
-    fig.savefig(path, dpi=110)
-    return path
+    return save_figure(fig, path)
 
 
 def areas(run, m, path):
@@ -74,8 +74,7 @@ def areas(run, m, path):
     a.set_ylim(bottom=0)
     a.grid(alpha=0.3)
     a.legend()
-    fig.savefig(path, dpi=110)
-    return path
+    return save_figure(fig, path)
 
 
 def level_of_service(run, plan, path):
@@ -114,5 +113,4 @@ def level_of_service(run, plan, path):
     fig.suptitle(run.title, fontsize=10)
     a.set(title="level of service (Fruin 1971, walkways) of the maximum density over the run",
           xlabel="x (m)", ylabel="y (m)")
-    fig.savefig(path, dpi=110)
-    return path
+    return save_figure(fig, path)

@@ -30,6 +30,7 @@ from ..case.units import counts_people, crowd_unit, density_title
 from ..driver.ownership import reading
 from ..driver.reading import RunDirectory
 from ..errors import InputError
+from ..files import make_directory, replaced, save_figure
 from ..mesh import Boundary, file_checksum, load_domain
 from .canvas import CMAPS, PRESSURE_TITLE, Canvas, bounds, nice_top, pv
 from .measurements import measurement_plots
@@ -46,8 +47,9 @@ CURVES_REMAINING = 1e-3     # curves are shown until this fraction of the crowd 
 
 
 def read(run, stem, k):
-    """Frame k of a run as a pyvista mesh (VTK's own reader: what is rendered)."""
-    return pv.read(run.directory / run.frames[stem][k][1])
+    """Frame k of a run as a pyvista mesh (VTK's own reader: what is rendered), there and whole
+    (RunDirectory.frame_file)."""
+    return pv.read(run.frame_file(stem, k))
 
 
 def floor_plan(run):
@@ -246,10 +248,11 @@ def animation(run, plan, out, mp4=False, quiet=True):
             canvas.title(f"{run.title}\n{frame.n_points} discs at t = {t[k]:.1f} s{closed}")
         images.append(canvas.image())
     canvas.close()
-    if mp4:
-        imageio.mimwrite(path, images, fps=1.0 / seconds, macro_block_size=2)
-    else:
-        imageio.mimwrite(path, images, duration=1000 * seconds, loop=0)
+    with replaced(path) as tmp:
+        if mp4:
+            imageio.mimwrite(tmp, images, fps=1.0 / seconds, macro_block_size=2)
+        else:
+            imageio.mimwrite(tmp, images, duration=1000 * seconds, loop=0)
     return path
 
 
@@ -272,9 +275,7 @@ def curves(run, out):
     fig = curves_figure(run)
     if fig is None:
         return None
-    path = out / "curves.png"
-    fig.savefig(path, dpi=110)
-    return path
+    return save_figure(fig, out / "curves.png")
 
 
 def curves_figure(run):
@@ -356,8 +357,7 @@ def _plot_run(directory, times, animate, out, mp4, quiet) -> list:
     if animate and mp4 and importlib.util.find_spec("imageio_ffmpeg") is None:
         raise InputError(run.directory, "--mp4", True,
                          "MP4 needs imageio-ffmpeg (pip install imageio-ffmpeg); the default GIF does not")
-    out = Path(out) if out is not None else run.directory / "plots"
-    out.mkdir(parents=True, exist_ok=True)
+    out = make_directory(out) if out is not None else make_directory(run.directory / "plots", own=True)
     plan = FloorPlan(run)
     written = pictures(run, plan, times, out)
     written += [animation(run, plan, out, mp4, quiet) if animate else None, curves(run, out)]

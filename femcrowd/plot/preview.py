@@ -22,6 +22,7 @@ from matplotlib.tri import Triangulation
 from ..case.units import counts_people, crowd_unit, density_title
 from ..driver.populations import disc_populations, initial_densities
 from ..driver.scene import build_scene, initial_discs
+from ..files import make_directory, save_figure
 from .canvas import CMAPS, EXIT, FLOOR, OBSTACLE, POPULATION_CMAPS, TEXT, WALL
 
 CLOSED, SOURCE, MEASURE = "#d7301f", "#2b6cb0", "#7b3294"
@@ -167,8 +168,5 @@ def preview(case, out=None) -> tuple[Path, float]:
     """Write the scene of a case to OUT/<case directory name>-preview.png (OUT: the current directory by
     default); (the path, the number of people at t = 0)."""
     fig, total = scene_figure(case)
-    directory = Path(out) if out is not None else Path.cwd()
-    directory.mkdir(parents=True, exist_ok=True)
-    path = directory / f"{case.file.parent.name}-preview.png"
-    fig.savefig(path, dpi=110)
-    return path, total
+    directory = make_directory(out) if out is not None else Path.cwd()
+    return save_figure(fig, directory / f"{case.file.parent.name}-preview.png"), total

@@ -1,6 +1,8 @@
 """The picture of a validation (``femcrowd validate``): specific flow through a bottleneck against its width, the
 models beside the experiments."""
 
+from ..files import save_figure
+
 
 def flows_plot(rows, table, labels, published, path):
     """Specific flow against width: each setting's converged values (the table's rows; the runs' rows, its coarser
@@ -35,5 +37,5 @@ def flows_plot(rows, table, labels, published, path):
     ax.yaxis.set_minor_formatter(NullFormatter())
     ax.grid(alpha=0.3, which="both")
     fig.legend(loc="outside lower center", fontsize=7.5, ncol=2)
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path)
     plt.close(fig)

@@ -29,6 +29,7 @@ from ..case import Case  # noqa: E402
 from ..driver import run  # noqa: E402
 from ..driver.output import prepare_output_dir  # noqa: E402
 from ..driver.reading import read_frame, read_pvd  # noqa: E402
+from ..files import replaced, save_figure  # noqa: E402
 
 
 def compare(case: Case, out=None, force=False, quiet=False, pictures=4, threads: int = 1) -> dict:
@@ -49,7 +50,7 @@ def compare(case: Case, out=None, force=False, quiet=False, pictures=4, threads:
         density = grid.cell_data["density"][0] if k < len(macro) else np.zeros_like(area)
         rows.append({"time": t, "macro_inside": count * (area @ density) / mass0,
                      "micro_inside": len(discs.points), "w2": _w2(grid, area, density, discs)})
-    with open(out_dir / "comparison.csv", "w", newline="") as f:
+    with replaced(out_dir / "comparison.csv", sync=True) as tmp, open(tmp, "w", newline="") as f:
         writer = csv.DictWriter(f, list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
@@ -90,7 +91,7 @@ def _plot_evacuation(path, rows, title):
     ax2.set(xlabel="time (s)", ylabel="W2 (m)", title="W2(macro density, discs), normalised")
     fig.suptitle(title)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path)
     plt.close(fig)
 
 
@@ -116,5 +117,5 @@ def _plot_side_by_side(path, macro_frame, micro_frame):
         ax.set_xlim(p[:, 0].min(), p[:, 0].max())
         ax.set_ylim(p[:, 1].min(), p[:, 1].max())
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path)
     plt.close(fig)

@@ -30,6 +30,7 @@ from ..driver import Simulation
 from ..driver.output import prepare_output_dir
 from ..driver.scene import check_transport_cfl
 from ..errors import InputError, Interrupted, StudyFailed
+from ..files import replaced, write_text
 from ..macro.transport import TRANSPORTS
 from ..mesh import Domain
 from ..plot.convergence import error_plot
@@ -280,7 +281,7 @@ def write_report(out_dir, case, exact, tasks, rows, reference, incomplete: str |
     they would not match the tables)."""
     columns = ["series", "level", "mesh", "cfl", "cells", "h", "steps", "time", *TIMING, *METRICS,
                "mass_error", "rho_min", "rho_max", "p_min"]
-    with open(out_dir / "convergence.csv", "w", newline="") as f:
+    with replaced(out_dir / "convergence.csv", sync=True) as tmp, open(tmp, "w", newline="") as f:
         writer = csv.DictWriter(f, columns, extrasaction="ignore")
         writer.writeheader()
         writer.writerows(rows)
@@ -320,7 +321,7 @@ def write_report(out_dir, case, exact, tasks, rows, reference, incomplete: str |
                  + (" and `frontier.png` (with the published reference figures)." if reference else "."), ""]
                 if not incomplete else [])]
     text = "\n".join(lines)
-    (out_dir / "convergence.md").write_text(text)
+    write_text(out_dir / "convergence.md", text, sync=True)
     if incomplete:
         for name in PLOTS:
             (out_dir / name).unlink(missing_ok=True)

@@ -22,6 +22,7 @@ from ..case import load_case
 from ..driver import Simulation
 from ..driver.output import prepare_output_dir
 from ..errors import InputError, Interrupted, StudyFailed
+from ..files import replaced, write_text
 from ..timer import Stopwatch
 from .convergence import plan_study
 from .execute import StudyInterrupted, describe, execute
@@ -102,13 +103,13 @@ def study(case_dir, levels: int, out=None, overrides=(), cfls=(), set_values=(),
                 {"cells": 0, "h": math.nan, "steps": 0, "wall_seconds": math.nan}),
              **{f"t {name}": v for name, v in zip(names, r["times"] if _finished(r) else [math.nan] * len(names))}}
             for t, r in zip(tasks, results)]
-    with open(out_dir / "evacuation.csv", "w", newline="") as f:
+    with replaced(out_dir / "evacuation.csv", sync=True) as tmp, open(tmp, "w", newline="") as f:
         writer = csv.DictWriter(f, list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
     failed = [(describe(t), r["failed"]) for t, r in zip(tasks, results) if r is not None and "failed" in r]
     text = report(base, rows, names) + "".join(f"\nfailed: {name}: {reason}" for name, reason in failed)
-    (out_dir / "evacuation.md").write_text(text)
+    write_text(out_dir / "evacuation.md", text, sync=True)
     kept = f"the finished levels kept in {out_dir}/evacuation.md and evacuation.csv"
     if stopped is not None:
         raise Interrupted(kept) from None

@@ -27,6 +27,7 @@ from ..case import load_case
 from ..driver import run
 from ..driver.output import prepare_output_dir
 from ..errors import InputError
+from ..files import replaced, write_text
 from ..timer import Stopwatch
 from .stress_checks import CHECKS, LINEAR_TOL, MASS_TOL, RHO_TOL, Check, Output, population_invariants
 
@@ -168,9 +169,9 @@ def markdown(results):
 def write_tables(results, stem):
     """stem.csv (full precision, with the failed checks) and stem.md."""
     stem = Path(stem)
-    with open(stem.with_suffix(".csv"), "w", newline="") as f:
+    with replaced(stem.with_suffix(".csv"), sync=True) as tmp, open(tmp, "w", newline="") as f:
         writer = csv.DictWriter(f, COLUMNS + ["failed_checks"])
         writer.writeheader()
         for r in results:
             writer.writerow(r.row() | {"failed_checks": "; ".join(f"{c.what}: {c.detail}" for c in r.failures())})
-    stem.with_suffix(".md").write_text(markdown(results))
+    write_text(stem.with_suffix(".md"), markdown(results), sync=True)

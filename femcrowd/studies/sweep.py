@@ -9,6 +9,7 @@ from ..case import load_case
 from ..driver import run
 from ..driver.output import prepare_output_dir, write_json
 from ..errors import InputError, StudyFailed
+from ..files import replaced, write_text
 from .convergence import Task, parse_set_values
 from .execute import describe, execute
 
@@ -59,7 +60,7 @@ def sweep(case_dir, set_values, out=None, overrides=(), serial: bool = False, sc
     keys = list(tasks[0].values)
     rows = [_row(t, r) for t, r in zip(tasks, results)]
     columns = keys + list(SUMMARY_COLUMNS) + ["output_dir", "reason"]
-    with open(root / "sweep.csv", "w", newline="") as f:
+    with replaced(root / "sweep.csv", sync=True) as tmp, open(tmp, "w", newline="") as f:
         writer = csv.DictWriter(f, columns)
         writer.writeheader()
         writer.writerows(rows)
@@ -73,7 +74,7 @@ def sweep(case_dir, set_values, out=None, overrides=(), serial: bool = False, sc
         lines += ["", f"**{len(failed)} of {len(rows)} runs failed:**", ""]
         lines += [f"- {name}: {reason}" for name, reason in failed]
     text = "\n".join(lines) + "\n"
-    (root / "sweep.md").write_text(text)
+    write_text(root / "sweep.md", text, sync=True)
     write_json(root / "sweep.json", rows)
     if failed:
         raise StudyFailed(f"{len(failed)} of {len(rows)} sweep runs failed ({failed[0][0]}: {failed[0][1]}); "

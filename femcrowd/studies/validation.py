@@ -23,6 +23,7 @@ from ..case import load_case
 from ..driver import Simulation
 from ..driver.output import prepare_output_dir
 from ..errors import InputError
+from ..files import make_directory, replaced, write_text
 from ..mesh.floorplan import build_mesh
 from ..plot.validation import flows_plot
 from ..timer import Stopwatch
@@ -115,10 +116,10 @@ def scene(width: float, root: Path) -> Path:
     """The case directory of the bottleneck of this width (plan, mesh, case.toml), made once under root."""
     directory = Path(root) / f"bottleneck-{width:g}"
     if not (directory / "case.toml").exists():
-        directory.mkdir(parents=True, exist_ok=True)
-        (directory / "bottleneck.toml").write_text(PLAN.format(low=3 - width / 2, high=3 + width / 2))
+        make_directory(directory, own=True)
+        write_text(directory / "bottleneck.toml", PLAN.format(low=3 - width / 2, high=3 + width / 2))
         build_mesh(directory / "bottleneck.toml", directory / "bottleneck.msh")
-        (directory / "case.toml").write_text(CASE.format(width=width))
+        write_text(directory / "case.toml", CASE.format(width=width))
     return directory
 
 
@@ -218,13 +219,13 @@ def validate(out, settings=tuple(SETTINGS), widths=WIDTHS, levels: int = 3, seed
     root = prepare_output_dir(Path(out), "--out", force)
     tasks = plan(settings, widths, levels, seeds, root, overrides)
     rows = execute(run_task, tasks, serial, scheduler, echo=echo)
-    with open(root / "validation.csv", "w", newline="") as f:
+    with replaced(root / "validation.csv", sync=True) as tmp, open(tmp, "w", newline="") as f:
         writer = csv.DictWriter(f, list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
     table = summarise(rows)
     text = markdown(table)
-    (root / "validation.md").write_text(text)
+    write_text(root / "validation.md", text, sync=True)
     flows_plot(rows, table, {name: setting.label for name, setting in SETTINGS.items()}, experiments(),
                root / "validation.png")
     return table, text, root

@@ -18,6 +18,7 @@ from femcrowd.cli import main
 from femcrowd.driver.output import MARKER
 from femcrowd.driver.ownership import LOCK, RunLock, reading
 from femcrowd.driver.reading import read_frame, read_history, read_pvd
+from femcrowd.files import TEMPORARY
 
 from ..support import CASES, FEMCROWD
 
@@ -153,6 +154,18 @@ def test_no_write_follows_a_link_on_resume(tmp_path):
     assert np.allclose(ha["mass"], hb["mass"], rtol=1e-10) and len(ha["time"]) == len(hb["time"])
 
 
+def test_a_link_at_a_file_name_is_refused(tmp_path):
+    """--force into a directory not written by femcrowd, holding a link named summary.json: the run stops with
+    one line naming it (before: the link was replaced), its target untouched."""
+    out = tmp_path / "out"
+    out.mkdir()
+    targets = plant(out, ["summary.json"], tmp_path)
+    result = invoke("run", QUICK, "--out", out, "-q", "--force", "--set", "time.end=0.25")
+    assert result.exit_code == 2
+    one_line(result.stderr, out / "summary.json", "symbolic link")
+    assert {t: t.read_bytes() for t in targets} == targets and (out / "summary.json").is_symlink()
+
+
 def test_a_link_as_the_lock_is_refused(tmp_path):
     out = tmp_path / "out"
     assert invoke("run", QUICK, "--out", out, "-q", "--set", "time.end=0.25").exit_code == 0
@@ -192,7 +205,7 @@ def test_a_full_disk_stops_the_run_resumable(tmp_path, monkeypatch, where):
     assert result.exit_code == 2
     name = "solution_00003.vtu" if where == "frame" else "checkpoint.npz"
     one_line(result.stderr, out / name, "No space left on device")
-    assert not list(out.glob("*.tmp")) and not list(out.glob(".*.tmp"))
+    assert not list(out.glob("*.tmp")) and not list(out.glob(TEMPORARY))
     with np.load(out / "checkpoint.npz") as data:   # the one of frame 2, whole
         assert float(data["state/t"]) == 0.5
     monkeypatch.undo()

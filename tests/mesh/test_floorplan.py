@@ -1,10 +1,15 @@
 """Floor plans to gmsh meshes: areas, exit groups, bad input, shipped meshes."""
 
 
+import os
+
+import gmsh
 import numpy as np
 import pytest
 import skfem
+from click.testing import CliRunner
 
+from femcrowd.cli import main
 from femcrowd.errors import InputError
 from femcrowd.mesh import read_mesh
 from femcrowd.mesh.floorplan import build_mesh
@@ -211,3 +216,43 @@ def test_units_and_wall_thickness_options_are_for_cad_plans(tmp_path):
         with pytest.raises(InputError, match=f"plan.toml: --{option.replace('_', '-')} = .*for DXF and WKT plans"):
             build_mesh(path, cad={option: value})
     assert not path.with_suffix(".msh").exists()
+
+
+def cut_short(monkeypatch):
+    """gmsh.write as on a full disk: part of the file written, no error raised (gmsh's C stdio says nothing)."""
+    write = gmsh.write
+
+    def half(name):
+        write(name)
+        size = os.path.getsize(name)
+        with open(name, "r+b") as f:
+            f.truncate(size // 2)
+
+    monkeypatch.setattr(gmsh, "write", half)
+
+
+def test_a_mesh_cut_short_leaves_the_previous_mesh(tmp_path, monkeypatch):
+    """A full disk under `femcrowd mesh` (gmsh writes half the file and raises nothing): one line naming the
+    .msh, exit 2, the mesh there before byte for byte, no temporary file; before, the partial file was renamed
+    onto it and the next run said "list index out of range"."""
+    out = tmp_path / "room.msh"
+    build_mesh(write(tmp_path, ROOM), out)
+    before = out.read_bytes()
+    cut_short(monkeypatch)
+    result = CliRunner().invoke(main, ["mesh", str(write(tmp_path, ROOM + CIRCLE, "other.toml")), "-o", str(out)])
+    assert result.exit_code == 2, result.output
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and str(out) in lines[0] and "incomplete" in lines[0], result.stderr
+    assert out.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["other.toml", "plan.toml", "room.msh"]
+
+
+def test_mesh_writes_no_file_through_a_link(tmp_path):
+    """-o a link (to a file of someone else's, or dangling): refused with one line, the target untouched."""
+    target, out = tmp_path / "target.msh", tmp_path / "room.msh"
+    target.write_text("not femcrowd's\n")
+    out.symlink_to(target)
+    result = CliRunner().invoke(main, ["mesh", str(write(tmp_path, ROOM)), "-o", str(out)])
+    assert result.exit_code == 2, result.output
+    assert result.stderr.count("\n") == 1 and str(out) in result.stderr and "symbolic link" in result.stderr
+    assert target.read_text() == "not femcrowd's\n" and out.is_symlink()
