@@ -4,6 +4,8 @@ command that kept part of its work.
 The CLI prints either as a single line and exits non-zero (2, 130), without a traceback.
 """
 
+import stat
+from pathlib import Path
 
 #: the most characters of a value that a message shows (a 200,000-term expression is not echoed whole)
 SHOWN = 200
@@ -19,6 +21,22 @@ class InputError(Exception):
             shown = f"{shown[:SHOWN]}... ({len(str(value))} characters)"
         where = self.file if key is None else f"{self.file}: {key} = {shown}"
         super().__init__(f"{where}: {message}")
+
+
+#: what a path that is not a regular file is, by its stat type
+KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a fifo (named pipe)"), (stat.S_ISCHR, "a character device"),
+         (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
+
+
+def not_a_file(path, what: str) -> str:
+    """Why `path` cannot be read as `what` ("mesh file", ...): not found, or not a regular file but a directory,
+    a fifo, a device (which would block or never end)."""
+    try:
+        mode = Path(path).stat().st_mode
+    except OSError:
+        return f"{what} not found"
+    kind = next((f"{name}, not" for test, name in KINDS if test(mode)), "not")
+    return f"is {kind} a regular file: expected the {what}"
 
 
 class Interrupted(KeyboardInterrupt):

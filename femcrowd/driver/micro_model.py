@@ -254,4 +254,4 @@ class MicroModel:
         where = np.where(cell < 0, cells - 1, cell)   # the last column: discs outside every cell
         people = np.bincount(self.population[sim.ids] * cells + where, minlength=len(self.names) * cells)
         return {"steps": sim.nstep, "tau": self.tau, "evacuation_time": self.evacuation.time,
-                "remaining": self.regions.remaining(sim.t, people.reshape(len(self.names), cells))}
+                "remaining": self.regions.remaining(sim.t, people.reshape(len(self.names), cells), sim.count == 0)}
