@@ -1,7 +1,7 @@
 """The error type for bad user input (case files, meshes, geometry files), and the interruption of a
 command that kept part of its work.
 
-The CLI prints either as a single line and exits non-zero (2, 130), without a traceback.
+The CLI prints each as a single line and exits non-zero (2, a failed run 1, 130), without a traceback.
 """
 
 import stat
@@ -21,6 +21,11 @@ class InputError(Exception):
             shown = f"{shown[:SHOWN]}... ({len(str(value))} characters)"
         where = self.file if key is None else f"{self.file}: {key} = {shown}"
         super().__init__(f"{where}: {message}")
+
+
+class RunFailed(InputError):
+    """A run that went wrong on the way (a disc through a wall): one line naming the file and the key most likely
+    responsible; the command exits with 1, the files written so far are kept."""
 
 
 #: what a path that is not a regular file is, by its stat type

@@ -13,6 +13,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from ..errors import RunFailed
 from ..macro.velocity import CongestionVelocity
 from ..micro import MicroSimulation
 from ..micro.contacts import WallSet
@@ -64,7 +65,7 @@ class MicroModel:
 
     def __init__(self, scene: Scene):
         case, domain, boundary = scene.case, scene.domain, scene.boundary
-        self.domain, self.boundary = domain, boundary
+        self.case, self.domain, self.boundary = case, domain, boundary
         if boundary.capped:
             log.warning("%s: the disc model has no door capacity: [boundary.capacity] is not used (how many discs "
                         "pass a door follows from the discs)", case.file)
@@ -145,6 +146,7 @@ class MicroModel:
                 self.desired.population = self.population = np.concatenate([self.population, population])
             before, ids = sim.q, sim.ids   # the discs before the step (the step makes new arrays)
             info = sim.step()
+            self.outside = self._escaped(info)
         if until - sim.t < 1e-12 * max(1.0, until):
             sim.t = until
         sim.tau = self.tau
@@ -157,6 +159,20 @@ class MicroModel:
         self.last = info
         self.evacuation.after_step(sim.t, info.count, 0)
         return info
+
+    def _escaped(self, info) -> int:
+        """The discs outside the domain after a step: none, since a disc leaves through an exit only (and is then
+        removed); one that crossed a wall is an error naming the step's perturbation or its time step."""
+        outside = np.flatnonzero(self.domain.locate(info.q) < 0)
+        if not len(outside):
+            return 0
+        spec, time = self.case["micro"], self.case["time"]
+        key = ("micro.fluctuation", spec["fluctuation"]) if spec["fluctuation"] > 0 else \
+            ("time.dt", time["dt"]) if time["dt"] is not None else ("time.cfl", time["cfl"])
+        x, y = info.q[outside[0]]
+        raise RunFailed(self.case.file, *key, f"{len(outside)} disc(s) left the domain through a wall in the step to "
+                        f"t = {info.time:.6g} s (tau = {info.dt:.3g} s), the first to ({x:.6g}, {y:.6g}): a disc "
+                        "leaves through an exit only; a smaller perturbation or time step keeps the discs in")
 
     def _doors(self, scheduled):
         """The walls and exits of the discs: the `scheduled` doors, but an exit due to close stays open while a
@@ -182,7 +198,7 @@ class MicroModel:
     def row(self, info=None) -> dict:
         """The diagnostics of a step (info: its StepInfo; None: the initial discs)."""
         sim = self.sim
-        outside = int(np.count_nonzero(self.domain.locate(sim.q) < 0))
+        outside = self.outside if info is not None else int(np.count_nonzero(self.domain.locate(sim.q) < 0))
         extra = self._population_row() if len(self.names) > 1 else {}
         if self.sources is not None:
             extra.update(inflow=self.sources.inflow, queued=self.sources.queued)
