@@ -19,8 +19,15 @@ class InputError(Exception):
         shown = repr(value)
         if len(shown) > SHOWN:
             shown = f"{shown[:SHOWN]}... ({len(str(value))} characters)"
-        where = self.file if key is None else f"{self.file}: {key} = {shown}"
+        where = _line(self.file) if key is None else f"{_line(self.file)}: {_line(key)} = {shown}"
         super().__init__(f"{where}: {message}")
+
+
+def _line(name) -> str:
+    """A file or key name as it shows in one line: quoted (repr) when it holds a line break or another
+    unprintable character."""
+    name = str(name)
+    return name if name.isprintable() else repr(name)
 
 
 class RunFailed(InputError):
