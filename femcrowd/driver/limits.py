@@ -3,10 +3,10 @@
 sample points of their contacts, the time step, the steps, the frames, the memory and the disk.
 
 A :class:`Plan` is filled in stage by stage as a case is set up (``Simulation``): the mesh's size before it is
-refined, the speeds, the discs before they are sampled or read, the steps and frames once the model is built; each stage checks
-what it adds and raises :class:`LimitError` (one line naming the key responsible, exit 2) at the first limit
-passed, before anything is allocated for it and before the output directory is touched. ``femcrowd info``
-prints the same plan; ``femcrowd run --no-limits`` (``limits=None``) only fills it in.
+refined, the speeds, the discs before they are sampled or read, the steps and frames once the model is built;
+each stage checks what it adds and raises :class:`LimitError` (one line naming the key responsible, exit 2) at
+the first limit passed, before anything is allocated for it and before the output directory is touched.
+``femcrowd info`` prints the same plan; ``femcrowd run --no-limits`` (``limits=None``) only fills it in.
 """
 
 import math

@@ -13,8 +13,8 @@ A DXF drawing names its parts by layers (the names are options, case-insensitive
   the group is named after the layer ("exit_east"); a group named entrance* is an entrance.
 
 Lengths are converted to metres: the drawing's units are ``units`` if given, else its header's
-``$INSUNITS`` (unitless or absent: metres; a code ezdxf cannot convert is refused). Layers of other names, and entities of other kinds, are listed
-in one warning.
+``$INSUNITS`` (unitless or absent: metres; a code ezdxf cannot convert is refused). Layers of other names, and
+entities of other kinds, are listed in one warning.
 
 A WKT file holds one POLYGON (its holes are the obstacles), as JuPedSim writes walkable areas, and
 optionally LINESTRINGs (internal walls) beside it in a GEOMETRYCOLLECTION; its exits come as extra segments

@@ -26,7 +26,6 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-
 #: the finest spacing (m) of the points sampled along the walls (WallSet.near samples them every radius)
 WALL_SPACING = 1e-9
 
