@@ -227,10 +227,10 @@ def _fastest(case, scene, t) -> tuple:
     best = (0.0, ("velocity.speed", case["velocity"]["speed"]))
     for population in scene.populations:
         velocity = population.velocity
-        with np.errstate(all="ignore"):
-            u = np.nan_to_num(velocity.at_points(domain.centroid, t, exits), nan=np.inf)
-        name = ("ux", "uy")[int(np.abs(u[:, 1]).max() > np.abs(u[:, 0]).max())] \
-            if isinstance(velocity, FieldVelocity) else "speed"
+        field = isinstance(velocity, FieldVelocity)
+        with np.errstate(all="ignore"):   # the exits' U per cell as it is: no point location of the centroids
+            u = np.nan_to_num(velocity.at_points(domain.centroid, t) if field else velocity.cells(exits), nan=np.inf)
+        name = ("ux", "uy")[int(np.abs(u[:, 1]).max() > np.abs(u[:, 0]).max())] if field else "speed"
         own = case["populations"].get(population.name, {})
         key = f"populations.{population.name}.{name}" if own.get(name) is not None else f"velocity.{name}"
         speed = float(np.hypot(u[:, 0], u[:, 1]).max())
