@@ -18,6 +18,7 @@ from ..macro.velocity import CongestionVelocity
 from ..micro import MicroSimulation
 from ..micro.contacts import WallSet
 from ..micro.density import disc_density
+from ..micro.scheme import Uncovered
 from ..micro.strategies import DesiredVelocity, View
 from ..timer import Timer
 from .checkpoint import parts, restore_parts
@@ -145,7 +146,10 @@ class MicroModel:
                 sim.add(q_in, r_in)
                 self.desired.population = self.population = np.concatenate([self.population, population])
             before, ids = sim.q, sim.ids   # the discs before the step (the step makes new arrays)
-            info = sim.step()
+            try:
+                info = sim.step()
+            except Uncovered as err:
+                self._fail(str(err))
             self.outside = self._escaped(info)
         if until - sim.t < 1e-12 * max(1.0, until):
             sim.t = until
@@ -166,13 +170,16 @@ class MicroModel:
         outside = np.flatnonzero(self.domain.locate(info.q) < 0)
         if not len(outside):
             return 0
+        x, y = info.q[outside[0]]
+        self._fail(f"{len(outside)} disc(s) left the domain through a wall in the step to t = {info.time:.6g} s (tau "
+                   f"= {info.dt:.3g} s), the first to ({x:.6g}, {y:.6g}): a disc leaves through an exit only")
+
+    def _fail(self, what):
+        """A step gone wrong: RunFailed naming the discs' perturbation (micro.fluctuation) or else their time step."""
         spec, time = self.case["micro"], self.case["time"]
         key = ("micro.fluctuation", spec["fluctuation"]) if spec["fluctuation"] > 0 else \
             ("time.dt", time["dt"]) if time["dt"] is not None else ("time.cfl", time["cfl"])
-        x, y = info.q[outside[0]]
-        raise RunFailed(self.case.file, *key, f"{len(outside)} disc(s) left the domain through a wall in the step to "
-                        f"t = {info.time:.6g} s (tau = {info.dt:.3g} s), the first to ({x:.6g}, {y:.6g}): a disc "
-                        "leaves through an exit only; a smaller perturbation or time step keeps the discs in")
+        raise RunFailed(self.case.file, *key, f"{what}; a smaller perturbation or time step keeps the discs in")
 
     def _doors(self, scheduled):
         """The walls and exits of the discs: the `scheduled` doors, but an exit due to close stays open while a

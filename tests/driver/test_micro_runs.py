@@ -10,7 +10,7 @@ from click.testing import CliRunner
 from femcrowd import load_case, run
 from femcrowd.cli import main
 from femcrowd.driver.reading import read_history
-from femcrowd.errors import InputError
+from femcrowd.errors import InputError, RunFailed
 from femcrowd.micro import MicroSimulation
 from femcrowd.studies.compare import compare
 
@@ -164,3 +164,12 @@ def test_a_disc_through_a_wall_fails_the_run_in_one_line(tmp_path, monkeypatch):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"].startswith("failed: RunFailed: ") and summary["discs_outside"] == 0
     assert read_history(out / "history.csv")["time"][-1] == pytest.approx(0.2)
+
+
+def test_moves_no_candidate_list_covers_fail_the_run_in_one_line():
+    """micro.fluctuation = 1e300 (past the limits, with limits=None as --no-limits): velocities overflow and no
+    candidate list covers the step; RunFailed naming the key, not a RuntimeError."""
+    case = load_case(CASES / "narrow-door-micro", {"micro.fluctuation": 1e300, "time.end": 1})
+    with pytest.raises(RunFailed) as failed, np.errstate(all="ignore"):
+        run(case, files=False, limits=None)
+    assert failed.value.key == "micro.fluctuation" and "could not cover the moves" in failed.value.message
