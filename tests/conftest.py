@@ -1,10 +1,18 @@
 """Shared fixtures (the helpers that are not fixtures are in support.py)."""
 
 import pytest
+from hypothesis.configuration import set_hypothesis_home_dir
 
 from femcrowd.mesh import load_domain
 
 from .support import MESHES
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_configure(config):
+    """Hypothesis keeps its caches (constants of the source read when the tests are collected) under pytest's
+    temporary directory, not in ./.hypothesis: tests write nowhere else."""
+    set_hypothesis_home_dir(config._tmp_path_factory.mktemp("hypothesis"))
 
 
 @pytest.fixture(scope="session")

@@ -21,9 +21,11 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..errors import InputError
+from ..errors import InputError, not_a_file
 from .schema import REQUIRED, SCHEMA, NamedTables, check_value
 
+#: the message of arrays or tables nested deeper than the TOML parser's recursion allows
+TOO_DEEP = "arrays or tables nested too deeply (a few hundred levels; a case needs at most three)"
 #: the name of a table of a table of tables ([populations.<name>]): it names columns and arrays
 TABLE_NAME = re.compile(r"[A-Za-z0-9_-]+")
 
@@ -85,13 +87,15 @@ def load_case(case_dir, overrides=()) -> Case:
     path = Path(case_dir)
     file = path / "case.toml" if path.is_dir() else path
     if not file.is_file():
-        raise InputError(file, None, None, "case file not found")
+        raise InputError(file, None, None, not_a_file(file, "case file"))
     try:
-        raw = tomllib.loads(file.read_text())
+        raw = tomllib.loads(file.read_text(encoding="utf-8-sig"))   # TOML is UTF-8; a byte-order mark is skipped
     except tomllib.TOMLDecodeError as err:
         raise InputError(file, None, None, f"TOML syntax error: {err}") from None
     except UnicodeDecodeError:
         raise InputError(file, None, None, "not a text file") from None
+    except RecursionError:
+        raise InputError(file, None, None, TOO_DEEP) from None
     if isinstance(overrides, Mapping):
         items = [(key.split("."), value) for key, value in overrides.items()]
     else:
@@ -110,6 +114,8 @@ def parse_override(item: str, file="--set") -> tuple[list, object]:
         value = tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
         value = text
+    except RecursionError:
+        raise InputError(file, key.strip(), text, TOO_DEEP) from None
     return key.strip().split("."), value
 
 

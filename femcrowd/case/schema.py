@@ -98,7 +98,8 @@ SCHEMA = {
                      '"congestion": the route sees the crowd: each place heads for the exit of least time, the '
                      'walk (Hughes 2002: a path costs 1 / f(rho) per metre, f the speed law, or 1 - rho with a '
                      'constant speed; to a door with a capacity, the walking distance) or the wait behind the '
-                     'queue at a door with a capacity (docs/model.md, "Route choice"); for type exits',
+                     'queue at a door with a capacity (docs/model.md, "Route choice"); for type exits (refused when no '
+                     'population has it)',
                      ("shortest", "congestion")),
         "route_every": Key(1.0, "number", 'with route = "congestion": the routes are re-solved every route_every '
                            "seconds of simulated time and at every door change", low=0, low_open=True),
@@ -120,8 +121,9 @@ SCHEMA = {
                    "(0, 1] for upwind, (0, 0.5] for muscl and compressive, (0, 100] for implicit"),
         "dt": Key(None, "number", "a fixed time step (s) instead of cfl", low=0, low_open=True),
         "stop_when_empty": Key(True, "bool", "stop once the crowd has left (scenes with exits)"),
-        "empty_fraction": Key(1e-4, "number", "the crowd has left when less than this fraction of it is inside",
-                              low=0, high=1, low_open=True),
+        "empty_fraction": Key(1e-4, "number", "the crowd has left when less than this fraction of it is inside "
+                              "(at most 0.1: the evacuation time is that of 90 % of the crowd out, or more)",
+                              low=0, high=0.1, low_open=True),
     },
     "output": {
         "dir": Key("output", "str", "output directory, relative to case.toml (--out on the command line "
@@ -256,7 +258,8 @@ def _number(spec, value):
         raise Refused("expected a finite number")
     below = value <= spec.low if spec.low_open else value < spec.low
     if below or value > spec.high:
-        raise Refused(f"must be in {'(' if spec.low_open else '['}{spec.low:g}, {spec.high:g}]")
+        raise Refused(f"must be in {'(' if spec.low_open else '['}{spec.low:g}, {spec.high:g}"
+                      f"{']' if math.isfinite(spec.high) else ')'}")   # inf is refused above
     return value
 
 

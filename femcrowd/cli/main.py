@@ -9,7 +9,7 @@ import sys
 import click
 
 from .. import __version__
-from ..errors import InputError, Interrupted, StudyFailed
+from ..errors import InputError, Interrupted, RunFailed, StudyFailed
 from ..studies.execute import StudyInterrupted
 
 
@@ -25,6 +25,9 @@ class FemcrowdGroup(click.Group):
     def invoke(self, ctx):
         try:
             return super().invoke(ctx)
+        except RunFailed as err:
+            click.echo(f"femcrowd: error: {err}", err=True)
+            sys.exit(1)
         except InputError as err:
             click.echo(f"femcrowd: error: {err}", err=True)
             sys.exit(2)

@@ -1,12 +1,12 @@
 """What a run will take, known before it starts, and the limits past which it is refused (docs/tools.md,
-"Limits"): the triangles of the refined mesh, the discs to sample, the time step, the steps, the frames, the
-memory and the disk.
+"Limits"): the desired speeds, the triangles of the refined mesh, the discs to sample (or read) and the walls'
+sample points of their contacts, the time step, the steps, the frames, the memory and the disk.
 
 A :class:`Plan` is filled in stage by stage as a case is set up (``Simulation``): the mesh's size before it is
-refined, the discs before they are sampled, the steps and frames once the model is built; each stage checks
-what it adds and raises :class:`LimitError` (one line naming the key responsible, exit 2) at the first limit
-passed, before anything is allocated for it and before the output directory is touched. ``femcrowd info``
-prints the same plan; ``femcrowd run --no-limits`` (``limits=None``) only fills it in.
+refined, the speeds, the discs before they are sampled or read, the steps and frames once the model is built;
+each stage checks what it adds and raises :class:`LimitError` (one line naming the key responsible, exit 2) at
+the first limit passed, before anything is allocated for it and before the output directory is touched.
+``femcrowd info`` prints the same plan; ``femcrowd run --no-limits`` (``limits=None``) only fills it in.
 """
 
 import math
@@ -17,8 +17,10 @@ import numpy as np
 
 from ..errors import InputError
 from ..macro.velocity import FieldVelocity
+from ..micro.contacts import WALL_SPACING
 from ..micro.sampling import target_count
 from .populations import initial_densities
+from .scene import read_positions
 
 
 @dataclass(frozen=True)
@@ -29,6 +31,7 @@ class Limits:
     steps: float = 1e8
     memory: float = 0.8
     disk: float = 50e9
+    speed: float = 100.0   # m/s: a desired speed or micro.fluctuation (people run at up to 10 m/s)
 
 
 LIMITS = Limits()
@@ -40,6 +43,10 @@ MEMORY_BASE = 150e6          # Python, numpy, scipy, the set-up
 MEMORY_PER_TRIANGLE = 1.5e3
 MEMORY_PER_DISC = 8e3
 MEMORY_PER_VALUE = 32        # a number kept in the Recorder's rows: a list item and its float object
+# The discs' contacts with the walls come from points sampled along them every r_max (the largest radius; at
+# least 1 nm; micro/contacts.py, WallSet): 72-134 bytes a point measured (peak resident memory, radii 1e-3 and
+# 1e-6 m on cases/narrow-door-micro's walls).
+MEMORY_PER_WALL_POINT = 150
 FRAME_BYTES = 50             # per triangle (macro) or disc (micro)
 VALUE_BYTES = 12             # per value of a history.csv row
 TRAJECTORY_BYTES = 35        # per disc and trajectory frame
@@ -91,25 +98,48 @@ class Plan:
         if over:
             self._refuse(key, f"{triangles:.3g} triangles: {over}")
 
+    def speeds(self, scene) -> None:
+        """The fastest desired speed at t = 0 (cell centroids, every population) and, for discs, the standard
+        deviation of their perturbation (micro.fluctuation), each at most the limit on speeds."""
+        self.scene, case, limit = scene, self.case, self.limits
+        if limit is None:
+            return
+        sigma = case["micro"]["fluctuation"]
+        if case["model"]["type"] == "micro" and sigma > limit.speed:
+            self._refuse(("micro.fluctuation", sigma), f"a perturbation of {sigma:.3g} m/s per component, more than "
+                         f"the limit of {limit.speed:g} m/s")
+        speed, key = _fastest(case, scene, 0.0)
+        if speed > limit.speed:
+            self._refuse(key, f"a desired speed of up to {speed:.3g} m/s, more than the limit of {limit.speed:g} m/s")
+
     def discs(self, scene) -> None:
-        """The discs a micro case samples (before they are): their memory."""
+        """The discs a micro case samples or reads (before they are): their memory, with that of the points
+        sampled along the walls for their contacts (one every r_max)."""
         self.scene, case = scene, self.case
         spec = case["micro"]
-        if case["model"]["type"] != "micro" or spec["positions"] is not None:
+        if case["model"]["type"] != "micro":
             return
-        if spec["count"] is not None:
-            count, key = spec["count"], ("micro.count", spec["count"])
+        domain = scene.domain
+        walls = float(domain.length[~domain.interior].sum())
+        if spec["positions"] is not None:
+            _, r, _ = read_positions(case)
+            count, radius, key = len(r), float(r.max()), ("micro.positions", spec["positions"])
+        elif spec["count"] is not None:
+            count, radius, key = spec["count"], float(np.max(spec["radius"])), ("micro.count", spec["count"])
         else:   # what sample_discs draws from the density (driver/scene.py, initial_discs), in its phase
-            domain = scene.domain
             with scene.timer("discs"):
                 rho = initial_densities(case, domain).sum(axis=0)
                 count = target_count(lambda xy: rho[np.maximum(domain.locate(xy), 0)], domain.points,
                                      domain.triangles, spec["radius"])
-            key = ("micro.radius", spec["radius"])
+            radius, key = float(np.max(spec["radius"])), ("micro.radius", spec["radius"])
         self.values["discs"] = count
+        self.values["wall_points"] = points = walls / max(radius, WALL_SPACING)
+        if key[0] == "micro.count" and points * MEMORY_PER_WALL_POINT > count * MEMORY_PER_DISC:
+            key = ("micro.radius", spec["radius"])   # the walls' points cost more than the discs
         over = self._memory()
         if over:
-            self._refuse(key, f"{count:.3g} discs: {over}")
+            self._refuse(key, f"{count:.3g} discs of radius up to {radius:.3g} m ({points:.3g} points along the "
+                         f"{walls:.3g} m of walls for their contacts): {over}")
 
     def run(self, model) -> None:
         """The time step, steps, frames, memory and files of the run to time.end (fewer when the crowd leaves
@@ -151,7 +181,7 @@ class Plan:
         """The memory of what is planned so far (+ extra bytes); why it is beyond the limit, or ''."""
         v = self.values
         v["memory"] = (MEMORY_BASE + v.get("triangles", 0) * MEMORY_PER_TRIANGLE
-                       + v.get("discs", 0) * MEMORY_PER_DISC + extra)
+                       + v.get("discs", 0) * MEMORY_PER_DISC + v.get("wall_points", 0) * MEMORY_PER_WALL_POINT + extra)
         if self.limits is None or v["memory"] <= self.limits.memory * physical_memory():
             return ""
         return (f"about {v['memory'] / 1e9:.3g} GB of memory, more than {self.limits.memory:.0%} of this "
@@ -197,10 +227,10 @@ def _fastest(case, scene, t) -> tuple:
     best = (0.0, ("velocity.speed", case["velocity"]["speed"]))
     for population in scene.populations:
         velocity = population.velocity
-        with np.errstate(all="ignore"):
-            u = np.nan_to_num(velocity.at_points(domain.centroid, t, exits), nan=np.inf)
-        name = ("ux", "uy")[int(np.abs(u[:, 1]).max() > np.abs(u[:, 0]).max())] \
-            if isinstance(velocity, FieldVelocity) else "speed"
+        field = isinstance(velocity, FieldVelocity)
+        with np.errstate(all="ignore"):   # the exits' U per cell as it is: no point location of the centroids
+            u = np.nan_to_num(velocity.at_points(domain.centroid, t) if field else velocity.cells(exits), nan=np.inf)
+        name = ("ux", "uy")[int(np.abs(u[:, 1]).max() > np.abs(u[:, 0]).max())] if field else "speed"
         own = case["populations"].get(population.name, {})
         key = f"populations.{population.name}.{name}" if own.get(name) is not None else f"velocity.{name}"
         speed = float(np.hypot(u[:, 0], u[:, 1]).max())

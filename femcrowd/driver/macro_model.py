@@ -242,4 +242,5 @@ class MacroModel:
                 "remaining_fraction": self.mass / self.initial_mass if self.initial_mass > 0 else 0.0,
                 "evacuation_time": self.evacuation.time, "projection_needed": self.solver.needs_projection,
                 "remaining": self.regions.remaining(self.t, np.pad(self.state.rho * self.domain.area * self.rho_max,
-                                                                   ((0, 0), (0, 1))), self.empty_mass * self.rho_max)}
+                                                                   ((0, 0), (0, 1))), self.inside <= self.empty_mass,
+                                                    self.empty_mass * self.rho_max)}

@@ -13,10 +13,12 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from ..errors import RunFailed
 from ..macro.velocity import CongestionVelocity
 from ..micro import MicroSimulation
 from ..micro.contacts import WallSet
 from ..micro.density import disc_density
+from ..micro.scheme import Uncovered
 from ..micro.strategies import DesiredVelocity, View
 from ..timer import Timer
 from .checkpoint import parts, restore_parts
@@ -64,7 +66,7 @@ class MicroModel:
 
     def __init__(self, scene: Scene):
         case, domain, boundary = scene.case, scene.domain, scene.boundary
-        self.domain, self.boundary = domain, boundary
+        self.case, self.domain, self.boundary = case, domain, boundary
         if boundary.capped:
             log.warning("%s: the disc model has no door capacity: [boundary.capacity] is not used (how many discs "
                         "pass a door follows from the discs)", case.file)
@@ -144,7 +146,11 @@ class MicroModel:
                 sim.add(q_in, r_in)
                 self.desired.population = self.population = np.concatenate([self.population, population])
             before, ids = sim.q, sim.ids   # the discs before the step (the step makes new arrays)
-            info = sim.step()
+            try:
+                info = sim.step()
+            except Uncovered as err:
+                self._fail(str(err))
+            self.outside = self._escaped(info)
         if until - sim.t < 1e-12 * max(1.0, until):
             sim.t = until
         sim.tau = self.tau
@@ -157,6 +163,23 @@ class MicroModel:
         self.last = info
         self.evacuation.after_step(sim.t, info.count, 0)
         return info
+
+    def _escaped(self, info) -> int:
+        """The discs outside the domain after a step: none, since a disc leaves through an exit only (and is then
+        removed); one that crossed a wall is an error naming the step's perturbation or its time step."""
+        outside = np.flatnonzero(self.domain.locate(info.q) < 0)
+        if not len(outside):
+            return 0
+        x, y = info.q[outside[0]]
+        self._fail(f"{len(outside)} disc(s) left the domain through a wall in the step to t = {info.time:.6g} s (tau "
+                   f"= {info.dt:.3g} s), the first to ({x:.6g}, {y:.6g}): a disc leaves through an exit only")
+
+    def _fail(self, what):
+        """A step gone wrong: RunFailed naming the discs' perturbation (micro.fluctuation) or else their time step."""
+        spec, time = self.case["micro"], self.case["time"]
+        key = ("micro.fluctuation", spec["fluctuation"]) if spec["fluctuation"] > 0 else \
+            ("time.dt", time["dt"]) if time["dt"] is not None else ("time.cfl", time["cfl"])
+        raise RunFailed(self.case.file, *key, f"{what}; a smaller perturbation or time step keeps the discs in")
 
     def _doors(self, scheduled):
         """The walls and exits of the discs: the `scheduled` doors, but an exit due to close stays open while a
@@ -182,7 +205,7 @@ class MicroModel:
     def row(self, info=None) -> dict:
         """The diagnostics of a step (info: its StepInfo; None: the initial discs)."""
         sim = self.sim
-        outside = int(np.count_nonzero(self.domain.locate(sim.q) < 0))
+        outside = self.outside if info is not None else int(np.count_nonzero(self.domain.locate(sim.q) < 0))
         extra = self._population_row() if len(self.names) > 1 else {}
         if self.sources is not None:
             extra.update(inflow=self.sources.inflow, queued=self.sources.queued)
@@ -254,4 +277,4 @@ class MicroModel:
         where = np.where(cell < 0, cells - 1, cell)   # the last column: discs outside every cell
         people = np.bincount(self.population[sim.ids] * cells + where, minlength=len(self.names) * cells)
         return {"steps": sim.nstep, "tau": self.tau, "evacuation_time": self.evacuation.time,
-                "remaining": self.regions.remaining(sim.t, people.reshape(len(self.names), cells))}
+                "remaining": self.regions.remaining(sim.t, people.reshape(len(self.names), cells), sim.count == 0)}

@@ -108,6 +108,12 @@ def counted(case: Case, domain: Domain, shape: np.ndarray, people: float, key: s
 def build_populations(case: Case, domain: Domain, boundary: Boundary) -> list:
     """The populations of the case, their desired velocities built (distance fields of the exits open at 0)."""
     rho_max = case["model"]["rho_max"]
+    common = case["velocity"]["type"]
+    types = {spec["type"] or common for spec in case["populations"].values()} or {common}
+    if case["velocity"]["route"] == "congestion" and "exits" not in types:
+        raise InputError(case.file, "velocity.route", "congestion", "chooses the routes to the exits, but no "
+                         "population has velocity type 'exits' (with type 'field', ux and uy are the velocity): "
+                         'set velocity.type = "exits", or leave route out')
     if not case["populations"]:
         velocity = desired_velocity(case, domain, boundary)
         law = SpeedLaw(case["velocity"]["speed_law"], rho_max, case["velocity"]["push"],

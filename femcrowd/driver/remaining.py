@@ -62,11 +62,11 @@ class Regions:
                         "%.4g)): %s%s can never leave", self.file, np.count_nonzero(trapped), len(trapped),
                         self.mesh.name if self.mesh else "", x, y, crowd_text(inside[trapped].sum(), self.unit), fed)
 
-    def remaining(self, t: float, people: np.ndarray, threshold: float = 0.0) -> dict:
+    def remaining(self, t: float, people: np.ndarray, out: bool, threshold: float = 0.0) -> dict:
         """The summary entry "remaining" at time t: people (populations, cells + 1; the last column: people
-        outside every cell, counted as on their way), how many in all, why (the reasons with more than
-        `threshold`, the largest first, or "evacuated"), how many per reason and per population. Warns of
-        those who can never leave."""
+        outside every cell, counted as on their way), how many in all, why ("evacuated" when `out`, the model's
+        own verdict, the one that stops the run; else the reasons with more than `threshold`, the largest
+        first), how many per reason and per population. Warns of those who can never leave."""
         ever, later = self._open(0.0), self._open(t)
         now = self.has[:, [door.is_open(t) for door in self.exits]].any(axis=1)
         code = np.where(~ever, NONE, np.where(now, MOVING, CLOSED))
@@ -77,7 +77,7 @@ class Regions:
         names = [REASONS[r] if r != MOVING or t >= self.end else "interrupted" for r in listed]
         number = int if np.issubdtype(people.dtype, np.integer) else float
         total = number(people.sum())
-        if total <= threshold:
+        if out:
             listed, names = [], ["evacuated"]
         elif self.exits:
             self._warn_never(t, people, ~later, by_reason[NONE] if NONE in listed else 0.0, threshold)

@@ -74,6 +74,7 @@ class Simulation:
             self.threads_seconds = self._wall.seconds  # finding the pools, once per process
             self.scene = build_scene(case, self.plan)   # the mesh's size, before refining
             with self.scene.timer("setup"):   # the model's set-up, its own phases (discs, assembly) apart
+                self.plan.speeds(self.scene)
                 self.plan.discs(self.scene)
                 self.model = MODELS[case["model"]["type"]](self.scene)
                 self.plan.run(self.model)

@@ -146,10 +146,7 @@ def _discs_csv(case: Case, domain: Domain, exits) -> tuple[np.ndarray, np.ndarra
     outside the domain, that crosses a wall (a door closed at t = 0 included) or overlaps another disc (by more
     than 1e-9 r: touching is allowed), before anything is written."""
     name = case["micro"]["positions"]
-    try:
-        q, r, line = read_discs_csv(case.path(name), lines=True)
-    except (OSError, ValueError) as err:
-        raise InputError(case.file, "micro.positions", name, getattr(err, "strerror", None) or str(err)) from None
+    q, r, line = read_positions(case)
 
     def disc(k):
         return f"line {line[k]} (x = {q[k, 0]:g}, y = {q[k, 1]:g}, r = {r[k]:g})"
@@ -166,6 +163,16 @@ def _discs_csv(case: Case, domain: Domain, exits) -> tuple[np.ndarray, np.ndarra
         raise InputError(case.file, "micro.positions", name, f"{clash} by {overlap[0]:.3g} m{more}: discs must not "
                          "overlap one another nor cross a wall (touching is allowed)")
     return q, r
+
+
+def read_positions(case: Case) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(q, r, line in the file) of the CSV of [micro].positions; InputError naming it for a file that cannot be
+    read or holds bad values."""
+    name = case["micro"]["positions"]
+    try:
+        return read_discs_csv(case.path(name), lines=True)
+    except (OSError, ValueError) as err:
+        raise InputError(case.file, "micro.positions", name, getattr(err, "strerror", None) or str(err)) from None
 
 
 def check_transport_cfl(case: Case, transport) -> None:

@@ -13,8 +13,8 @@ A DXF drawing names its parts by layers (the names are options, case-insensitive
   the group is named after the layer ("exit_east"); a group named entrance* is an entrance.
 
 Lengths are converted to metres: the drawing's units are ``units`` if given, else its header's
-``$INSUNITS`` (unitless or absent: metres). Layers of other names, and entities of other kinds, are listed
-in one warning.
+``$INSUNITS`` (unitless or absent: metres; a code ezdxf cannot convert is refused). Layers of other names, and
+entities of other kinds, are listed in one warning.
 
 A WKT file holds one POLYGON (its holes are the obstacles), as JuPedSim writes walkable areas, and
 optionally LINESTRINGs (internal walls) beside it in a GEOMETRYCOLLECTION; its exits come as extra segments
@@ -91,7 +91,7 @@ def read_plan(file, walls=None, obstacles=None, doors=None, size=0.2, exits=(), 
     except (OSError, UnicodeDecodeError) as err:
         raise InputError(file, None, None, f"cannot read the plan: {getattr(err, 'strerror', None) or err}") from None
     if text is not None:
-        unit = _unit(units, None) if units else ("m (a WKT plan's default)", 1.0)
+        unit = _unit(file, units, None) if units else ("m (a WKT plan's default)", 1.0)
         data, origins = _from_wkt(file, text, unit[1])
         hint = "give the exits with --exit NAME=X0,Y0,X1,Y1, or --no-exits for a plan nobody leaves"
     else:
@@ -113,16 +113,27 @@ def read_plan(file, walls=None, obstacles=None, doors=None, size=0.2, exits=(), 
     return check_plan(data, _CadReader(file, origins, unit, require_exits, hint))
 
 
-def _unit(name, code):
-    """(description, metres per drawing unit) of the --units name, or else of the $INSUNITS code."""
-    from ezdxf.units import conversion_factor, unit_name
+def _unit(file, name, code):
+    """(description, metres per drawing unit) of the --units name, or else of the $INSUNITS code: 0 (unitless)
+    taken as metres, the others converted with ezdxf's table (ezdxf.units); a code it has no factor for (8
+    microinches, 9 mils, 21-24 the US survey units) or that is no DXF unit is refused, naming it."""
+    from ezdxf.units import InsertUnits, conversion_factor
 
     if name is not None:
         return f"{name} (--units)", conversion_factor(UNITS[name], UNITS["m"])
-    known = code in UNITS.values()
-    label = next((u for u, c in UNITS.items() if c == code), "m")
-    what = f"$INSUNITS = {code}" + ("" if known else f", {unit_name(code or 0).lower()}: taken as m")
-    return f"{label} ({what})", conversion_factor(code, UNITS["m"]) if known else 1.0
+    if code == 0:
+        return "m ($INSUNITS = 0, unitless: taken as m)", 1.0
+    hint = f"give the drawing's units with --units ({', '.join(UNITS)})"
+    try:
+        unit = InsertUnits(code).name
+    except ValueError:
+        raise InputError(file, "$INSUNITS", code, f"not a DXF unit code; {hint}") from None
+    try:
+        factor = conversion_factor(code, UNITS["m"])
+    except TypeError:
+        raise InputError(file, "$INSUNITS", code, f"{unit}: ezdxf.units has no factor to metres; {hint}") from None
+    label = next((u for u, c in UNITS.items() if c == code), unit.lower())
+    return f"{label} ($INSUNITS = {code})", factor
 
 
 def _from_wkt(file, text, factor):
@@ -165,7 +176,7 @@ def _from_dxf(file, layers, size, units):
         raise InputError(file, None, None, f"cannot read the drawing: {err}") from None
     except ezdxf.DXFError as err:
         raise InputError(file, None, None, f"not a DXF drawing: {err}") from None
-    unit = _unit(units, doc.header.get("$INSUNITS", 0))
+    unit = _unit(file, units, doc.header.get("$INSUNITS", 0))
     factor = unit[1]
     sagitta = size / 20 / factor   # arcs become chords no further than this (m) from the arc
     pieces = {"walls": [], "obstacles": [], "doors": []}
@@ -201,8 +212,11 @@ def _from_dxf(file, layers, size, units):
                          "the walls layer, and nothing joins this end (close the polyline, or join the lines and "
                          "arcs end to end)")
     if not wall_loops:
-        raise InputError(file, f"layer {layers['walls']!r}", None, "no outline: the walls layer has no closed loop "
-                         "(closed polylines, or lines and arcs joined end to end)")
+        found = "has no closed loop (closed polylines, or lines and arcs joined end to end)" if pieces["walls"] \
+            else f"holds no {', '.join(KINDS)}"
+        raise InputError(file, None, None, f"no outline: the walls layer {layers['walls']!r} {found}; the drawing's "
+                         f"layers: {', '.join(sorted(names, key=str.lower)) or 'none'}; give the outline's layer "
+                         "with --walls-layer")
     areas = [abs(_signed_area(p)) for p, _ in wall_loops]
     outer = int(np.argmax(areas))
     holes = [loop for k, loop in enumerate(wall_loops) if k != outer] + _loops(file, pieces["obstacles"], tol)

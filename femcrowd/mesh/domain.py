@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, not_a_file
 from .checks import regions
 from .gmsh_io import read_mesh
 from .locate import PointLocator
@@ -162,7 +162,7 @@ def load_domain(file, exits=(), refine=0, case_file="case.toml", check=None) -> 
     estimate, driver/limits.py, refuses a mesh that would not fit in memory)."""
     path = Path(file)
     if not path.is_file():
-        raise InputError(case_file, "mesh.file", str(file), "mesh file not found")
+        raise InputError(case_file, "mesh.file", str(file), not_a_file(path, "mesh file"))
     mesh = read_mesh(path, case_file)
     names = [n for n in (mesh.boundaries or {}) if not n.startswith("gmsh:")]
     for name in exits:

@@ -26,6 +26,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+#: the finest spacing (m) of the points sampled along the walls (WallSet.near samples them every radius)
+WALL_SPACING = 1e-9
+
 
 def as_segments(segments) -> np.ndarray:
     """Return ``segments`` as a float (S, 2, 2) array (an empty (0, 2, 2) if None)."""
@@ -145,7 +148,7 @@ class WallSet:
         empty = (np.zeros(0, np.intp), np.zeros(0, np.intp), np.zeros((0, 2)), np.zeros(0))
         if self.n == 0 or len(q) == 0:
             return empty
-        h = max(radius, 1e-9)
+        h = max(radius, WALL_SPACING)
         if self._tree is None or not (0.25 * h <= self.spacing <= 4 * h):
             self._build(h)
         if tree is None:

@@ -92,6 +92,10 @@ class StepInfo(Step):
         }
 
 
+class Uncovered(RuntimeError):
+    """Moves no candidate list covers after rebuilds (velocities beyond any scale of the discs)."""
+
+
 def _exit_segments(exits) -> np.ndarray:
     """The exit segments (E, 2, 2), collinear neighbours merged into one."""
     return merge_collinear(exits) if len(as_segments(exits)) else as_segments(exits)
@@ -276,7 +280,7 @@ class MicroSimulation:
                 return projection, constraints, rebuilds
             network.rebuild(self.q, self.r, max(network.base_skin, 2.5 * float(moved.max())))   # carries lam over
             rebuilds += 1
-        raise RuntimeError("candidate list could not cover the step")  # pragma: no cover - unbounded velocity
+        raise Uncovered(f"the candidate list could not cover the moves of the step from t = {self.t:.6g} s")
 
     def _leave(self, gone, pressure):
         """Remove the discs that crossed an exit (mask gone) and count them; returns the pressure of those left."""

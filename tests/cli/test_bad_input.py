@@ -2,6 +2,7 @@
 exit code 2, no traceback, and a pre-existing output directory left exactly as it was."""
 
 import json
+import os
 import subprocess
 import time
 from pathlib import Path
@@ -9,6 +10,7 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
+from femcrowd.case import load_case
 from femcrowd.cli import main
 from femcrowd.driver.output import MARKER
 
@@ -132,7 +134,19 @@ BAD = {
                           "expected a list of strings"),
     "refine is a float": (edit("[mesh]", "[mesh]\nrefine = 1.5"), GOOD_MESH, (), "mesh.refine", "1.5",
                           "expected an integer"),
-    "negative end time": (edit("end = 0.1", "end = -1"), GOOD_MESH, (), "time.end", "-1", "must be in (0"),
+    "negative end time": (edit("end = 0.1", "end = -1"), GOOD_MESH, (), "time.end", "-1", "must be in (0, inf)"),
+    "infinite end time": (edit("end = 0.1", "end = inf"), GOOD_MESH, (), "time.end", "inf", "expected a finite"),
+    "empty_fraction = 1": (BASE, GOOD_MESH, ("time.empty_fraction=1",), "time.empty_fraction", "1",
+                           "must be in (0, 0.1]"),
+    "arrays nested 600 deep": (BASE + "\n[convergence]\nmeshes = " + "[" * 600 + "]" * 600 + "\n", GOOD_MESH, (),
+                               None, None, "nested too deeply"),
+    "mesh file is a directory": (edit('"mesh.msh"', '"."'), GOOD_MESH, (), "mesh.file", "/case'",
+                                 "is a directory, not a regular file"),
+    "mesh file is a device": (edit('"mesh.msh"', '"/dev/zero"'), GOOD_MESH, (), "mesh.file", "/dev/zero",
+                              "is a character device, not a regular file"),
+    "route with a field velocity": (edit('type = "exits"', 'type = "field"\nux = 1.0\nroute = "congestion"'),
+                                    GOOD_MESH, (), "velocity.route", "congestion", "no population has velocity "
+                                    "type 'exits'"),
     "cfl = 0": (BASE, GOOD_MESH, ("time.cfl=0",), "time.cfl", "0", "must be in (0, 1]"),
     "cfl > 1": (BASE, GOOD_MESH, ("time.cfl=1.5",), "time.cfl", "1.5", "must be in (0, 1]"),
     "dt above the CFL limit": (BASE, GOOD_MESH, ("time.dt=10",), "time.dt", "10", "CFL limit"),
@@ -303,6 +317,32 @@ def assert_run_refused(tmp_path, toml, mesh, overrides, key, value, words):
 @pytest.mark.parametrize("name", list(BAD))
 def test_bad_input_is_refused_cleanly(tmp_path, name):
     assert_run_refused(tmp_path, *BAD[name])
+
+
+def test_a_fifo_as_mesh_file_is_named(tmp_path):
+    """A named pipe would block the reader: refused as what it is, not as a missing file."""
+    os.mkfifo(tmp_path / "pipe.msh")
+    assert_run_refused(tmp_path, edit('"mesh.msh"', '"../pipe.msh"'), GOOD_MESH, (), "mesh.file", "pipe.msh",
+                       "is a fifo (named pipe), not a regular file")
+
+
+def test_arrays_nested_600_deep_in_a_set_are_one_line(tmp_path):
+    case = write_case(tmp_path, BASE, GOOD_MESH)
+    deep = "[" * 600 + "]" * 600
+    result = CliRunner().invoke(main, ["run", str(case), "--out", str(tmp_path / "out"), "-q",
+                                       "--set", f"convergence.meshes={deep}"])
+    assert result.exit_code == 2 and result.stdout == "" and "Traceback" not in result.stderr
+    [line] = result.stderr.splitlines()
+    assert line.startswith(f"femcrowd: error: {case / 'case.toml'}: convergence.meshes = '[[[")
+    assert "nested too deeply" in line
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_byte_order_mark_is_skipped(tmp_path):
+    """Editors on Windows write UTF-8 with a BOM: the case loads as it does without."""
+    plain = load_case(write_case(tmp_path, BASE, GOOD_MESH))
+    (tmp_path / "case" / "case.toml").write_bytes(b"\xef\xbb\xbf" + BASE.encode())
+    assert load_case(tmp_path / "case").config == plain.config
 
 
 def test_output_dir_that_is_a_file(tmp_path):

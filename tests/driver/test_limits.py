@@ -40,6 +40,11 @@ def machine(monkeypatch):
     ("narrow-door-micro", {"micro.count": 10 ** 9}, "micro.count"),
     ("narrow-door-micro", {"micro.radius": 1e-6}, "micro.radius"),
     ("narrow-door-micro", {"time.dt": 1e-300}, "time.dt"),
+    ("narrow-door-micro", {"micro.fluctuation": 1e12}, "micro.fluctuation"),   # discs thrown 1e11 m a step
+    ("narrow-door-micro", {"micro.fluctuation": 1e300}, "micro.fluctuation"),
+    ("narrow-door-micro", {"micro.count": 5, "micro.radius": 1e-8}, "micro.radius"),   # 2.6e9 points on the walls
+    ("room", {"velocity.speed": 101}, "velocity.speed"),                    # a speed in cm/s
+    ("narrow-door-micro", {"velocity.speed": 101}, "velocity.speed"),
 ])
 def test_a_runaway_run_is_refused_before_anything_is_written(tmp_path, case, overrides, key):
     case = femcrowd.load_case(CASES / case, overrides)
@@ -105,3 +110,28 @@ def test_a_step_that_cannot_advance_t_stops_the_run(tmp_path):
     assert (out / "checkpoint.npz").is_file()
     rows = (out / "history.csv").read_text().splitlines()
     assert len(rows) == summary["steps"] + 2   # the header, t = 0, one row per step: none after the stop
+
+
+@pytest.mark.parametrize("radius, points", [(1e-8, 2.6e9), (1e-12, 2.6e10)])
+def test_discs_of_a_few_nanometres_are_refused_before_their_walls_are_sampled(tmp_path, radius, points):
+    """Three discs of micro.positions with radii of 1e-8 m (1e-12 m: 1e-9, the finest spacing): their contacts
+    would sample the 26 m of walls at every radius, hundreds of GB; refused with the count of points, at once."""
+    (tmp_path / "discs.csv").write_text("".join(f"{x},1,{radius}\n" for x in (1, 2, 3)).join(["x,y,r\n", ""]))
+    case = femcrowd.load_case(CASES / "narrow-door-micro", {"micro.positions": str(tmp_path / "discs.csv")})
+    with pytest.raises(LimitError) as refused:
+        femcrowd.run(case, out=tmp_path / "out")
+    assert refused.value.key == "micro.positions" and "3 discs of radius up to" in refused.value.message
+    assert f"{points:.3g} points along the 26 m of walls" in refused.value.message
+    assert refused.value.plan.values["wall_points"] == pytest.approx(points, rel=0.01)
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_limit_of_speeds_is_the_stated_one():
+    """A desired speed or a fluctuation of LIMITS.speed passes, just above is refused (docs/tools.md, "Limits")."""
+    case = femcrowd.load_case(CASES / "narrow-door-micro", {"micro.fluctuation": LIMITS.speed, "time.end": 0.1})
+    assert femcrowd.Simulation(case).plan.values["discs"] == 72   # set up: no LimitError
+    for key in ("micro.fluctuation", "velocity.speed"):
+        case = femcrowd.load_case(CASES / "narrow-door-micro", {key: LIMITS.speed * (1 + 1e-9), "time.end": 0.1})
+        with pytest.raises(LimitError) as refused:
+            femcrowd.Simulation(case)
+        assert refused.value.key == key and f"more than the limit of {LIMITS.speed:g} m/s" in refused.value.message

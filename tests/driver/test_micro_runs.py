@@ -1,5 +1,7 @@
 """Micro cases through the case system, and the micro/macro comparison on the narrow door."""
 
+import json
+
 import numpy as np
 import pytest
 import pyvista
@@ -8,7 +10,8 @@ from click.testing import CliRunner
 from femcrowd import load_case, run
 from femcrowd.cli import main
 from femcrowd.driver.reading import read_history
-from femcrowd.errors import InputError
+from femcrowd.errors import InputError, RunFailed
+from femcrowd.micro import MicroSimulation
 from femcrowd.studies.compare import compare
 
 from ..support import CASES, assert_phases_within_wall
@@ -136,3 +139,39 @@ def test_discs_behind_a_door_that_closes_stand_still(tmp_path):
     summary = run_micro(case, tmp_path)
     assert summary["status"] == "completed" and summary["final_count"] > 0
     assert summary["initial_count"] == summary["final_count"] + summary["evacuated"]
+
+
+def test_a_disc_through_a_wall_fails_the_run_in_one_line(tmp_path, monkeypatch):
+    """A step that leaves a disc outside the domain, not through the exit (here the third step carries disc 0
+    50 m beyond the wall x = 0, as a step of a perturbation of 1e12 m/s did), is an error, never a disc "left
+    inside": exit code 1, one line naming the case, the key and where the disc went; the summary says failed and
+    the history keeps the steps before."""
+    real = MicroSimulation.step
+
+    def step(sim):
+        info = real(sim)
+        if info.step == 3:
+            info.q[0] = (-50.0, 1.0)
+        return info
+
+    monkeypatch.setattr(MicroSimulation, "step", step)
+    out = tmp_path / "out"
+    result = CliRunner().invoke(main, ["run", str(CASES / "narrow-door-micro"), "-q", "--out", str(out),
+                                       "--set", "micro.fluctuation=0.5", "--set", "time.end=1"])
+    assert result.exit_code == 1 and result.stdout == "" and "Traceback" not in result.stderr, result.output
+    [line] = result.stderr.splitlines()
+    assert line.startswith(f"femcrowd: error: {CASES / 'narrow-door-micro' / 'case.toml'}: micro.fluctuation = 0.5: "
+                           "1 disc(s) left the domain through a wall in the step to t = 0.3 s")
+    assert "the first to (-50, 1)" in line
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"].startswith("failed: RunFailed: ") and summary["discs_outside"] == 0
+    assert read_history(out / "history.csv")["time"][-1] == pytest.approx(0.2)
+
+
+def test_moves_no_candidate_list_covers_fail_the_run_in_one_line():
+    """micro.fluctuation = 1e300 (past the limits, with limits=None as --no-limits): velocities overflow and no
+    candidate list covers the step; RunFailed naming the key, not a RuntimeError."""
+    case = load_case(CASES / "narrow-door-micro", {"micro.fluctuation": 1e300, "time.end": 1})
+    with pytest.raises(RunFailed) as failed, np.errstate(all="ignore"):
+        run(case, files=False, limits=None)
+    assert failed.value.key == "micro.fluctuation" and "could not cover the moves" in failed.value.message

@@ -128,3 +128,15 @@ def test_an_emptied_run_ends_when_the_crowd_is_out(tmp_path, monkeypatch, model)
     assert end is not None and end < 5.0 and summary["final_time"] == end
     n, total = bars[0]   # (tqdm's __del__ closes again)
     assert total == end and n == pytest.approx(end, rel=1e-12)
+
+
+def test_the_reason_agrees_with_the_stop_at_the_threshold():
+    """A run stopped because at most time.empty_fraction of its crowd is inside says "evacuated", even when the
+    people left equal that threshold up to round-off: the reason is the model's own verdict, not a second sum.
+    (empty_fraction = 1, refused in a case file, is set here through the API: the first step stops the run.)"""
+    case = load_case(CASES / "room", ["time.end=1"])
+    case.config["time"]["empty_fraction"] = 1.0
+    summary = Simulation(case).run().summary
+    assert summary["status"] == "completed" and summary["final_time"] < 1
+    assert summary["evacuation_time"] == summary["final_time"]
+    assert summary["remaining"]["reason"] == "evacuated"

@@ -116,10 +116,12 @@ def one_line_error(result, *words):
 
 
 @pytest.mark.parametrize("scale, insunits, units", [(1000, 4, None), (100, 0, "cm"), (1 / 0.3048, 0, "ft"),
-                                                    (1000, 6, "mm")])
+                                                    (1000, 6, "mm"), (1e-3, 7, None), (1e6, 13, None),
+                                                    (0.1, 15, None)])
 def test_units_from_insunits_or_given(tmp_path, scale, insunits, units):
     """A plan drawn in millimetres with $INSUNITS = 4, in centimetres or feet without units and --units,
-    and in mm with $INSUNITS wrongly saying m and --units mm: the mesh is the 10 x 6 m office."""
+    in mm with $INSUNITS wrongly saying m and --units mm, in km (7), microns (13) or decametres (15): the
+    mesh is the 10 x 6 m office."""
     plan = office(tmp_path / "plan.dxf", scale, insunits)
     result = mesh(plan, *(["--units", units] if units else []))
     assert result.exit_code == 0, result.output
@@ -264,3 +266,27 @@ def test_new_makes_the_entrance_a_source_and_needs_no_direction_without_exits(tm
     case = load_case(tmp_path / "closed")
     assert case["boundary"]["exits"] == [] and (case["velocity"]["ux"], case["velocity"]["uy"]) == ("0", "0")
     assert [s["boundary"] for s in case["sources"]] == ["entrance"]
+
+
+@pytest.mark.parametrize("insunits, words", [(21, "$INSUNITS = 21: USSurveyFeet: ezdxf.units has no factor"),
+                                             (8, "$INSUNITS = 8: Microinches"), (99, "$INSUNITS = 99: not a DXF unit")])
+def test_units_without_a_conversion_are_refused_by_name(tmp_path, insunits, words):
+    """A unit ezdxf cannot convert, or a code that is no unit, is not read as metres: one line naming it."""
+    plan = office(tmp_path / "plan.dxf", 1.0, insunits)
+    one_line_error(mesh(plan), "plan.dxf", words, "--units (mm, cm")
+    assert mesh(plan, "--units", "m").exit_code == 0
+    assert (tmp_path / "plan.msh").is_file()
+
+
+def test_an_outline_on_another_layer_lists_the_layers(tmp_path):
+    """Walls on A-WALL (a common CAD layer name): the error lists the drawing's layers and names --walls-layer,
+    with which the plan meshes."""
+    plan = office(tmp_path / "plan.dxf")
+    doc = ezdxf.readfile(plan)
+    doc.layers.new("A-WALL")
+    for entity in doc.modelspace().query('*[layer=="walls"]'):
+        entity.dxf.layer = "A-WALL"
+    doc.saveas(plan)
+    one_line_error(mesh(plan), "plan.dxf: no outline: the walls layer 'walls' holds no LINE",
+                   "layers: A-WALL, entrance, exit, notes", "--walls-layer")
+    assert mesh(plan, "--walls-layer", "A-WALL").exit_code == 0
