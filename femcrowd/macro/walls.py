@@ -25,25 +25,30 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order
 
+#: a component into a wall below this fraction of the speed is round-off
+ROUND_OFF = 1e-12
+
+
 def slip(domain, exits, cells, speed) -> np.ndarray:
-    """U per cell with no component into the wall facets of its cell, at the cell's speed (0 where nothing is
-    left: U normal to the wall, or a corner cell pointing into both its walls)."""
+    """U per cell with no component into the wall facets of its cell (to ROUND_OFF of the speed), at the cell's
+    speed; 0 where nothing is left (U normal to the wall, or a corner cell pointing into both its walls)."""
     facets = np.flatnonzero(exits.wall)
     k, n = domain.f2t[0][facets], domain.normal[facets]
     cells = cells.copy()
     touched = np.zeros(len(cells), bool)
-    for _ in range(2):   # a cell has at most two wall facets (three: a cell alone, which nothing can fix)
+    for _ in range(2):   # a cell has at most two wall facets (three: a triangle alone, with no exit)
         into = np.einsum("ij,ij->i", cells[k], n)
-        first = np.flatnonzero(into > 0)
-        first = first[np.unique(k[first], return_index=True)[1]]   # one facet per cell and pass
-        cells[k[first]] -= into[first, None] * n[first]
-        touched[k[first]] = True
-    into = np.zeros(len(cells), bool)
-    into[k[np.einsum("ij,ij->i", cells[k], n) > 0]] = True   # still into a wall after two passes
+        worst = np.argsort(-into, kind="stable")
+        worst = worst[np.unique(k[worst], return_index=True)[1]]   # per cell its facet of largest U . n
+        worst = worst[into[worst] > ROUND_OFF * speed[k[worst]]]
+        cells[k[worst]] -= into[worst, None] * n[worst]
+        touched[k[worst]] = True
+    into = np.einsum("ij,ij->i", cells[k], n) > ROUND_OFF * speed[k]
     norm = np.hypot(cells[:, 0], cells[:, 1])
-    scale = np.where(touched & ~into & (norm > 0), speed / np.where(norm > 0, norm, 1.0), 1.0)
-    cells *= scale[:, None]
-    cells[touched & (into | (norm == 0))] = 0.0
+    lost = touched & ((np.bincount(k, into, len(cells)) > 0) | (norm <= ROUND_OFF * speed))
+    rescale = touched & ~lost
+    cells[rescale] *= (speed[rescale] / norm[rescale])[:, None]
+    cells[lost] = 0.0
     return cells
 
 
