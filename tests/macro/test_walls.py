@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 import skfem
 
+from femcrowd import Simulation, load_case
 from femcrowd.case import Expression
+from femcrowd.driver.scene import build_scene
 from femcrowd.macro.speed_law import SpeedLaw
 from femcrowd.macro.transport import TRANSPORTS, LWRTransport
 from femcrowd.macro.velocity import CongestionVelocity, ExitsVelocity
@@ -14,7 +16,7 @@ from femcrowd.macro.walls import draining
 from femcrowd.mesh import Boundary, Domain
 from femcrowd.mesh.domain import load_domain
 
-from ..support import MESHES
+from ..support import CASES, MESHES
 
 #: obstacles in the unit square (exit: the side x = 1), by the centroids of the triangles they remove
 SOLIDS = {
@@ -110,3 +112,27 @@ def test_every_cell_of_the_shipped_meshes_drains(mesh):
         reach = np.isfinite(velocity.potential(exits)) & (velocity.potential(exits) >= 0)
         assert np.all(draining(domain, exits, cells)[reach])
         assert into_wall(domain, exits, cells).max(initial=0.0) <= 1e-12
+
+
+def test_in_front_of_the_column_of_room_column_the_paper_direction_traps_two_cells():
+    """Issue 34's column (cases/room-column, mesh.refine = 1): with "paper" two cells just in front of the column's
+    face (x = 5.6 m) have no path to the exit; with "slip" every cell has one."""
+    for walls, trapped in (("paper", 2), ("slip", 0)):
+        scene = build_scene(load_case(CASES / "room-column", [f"velocity.walls={walls}", "mesh.refine=1"]))
+        exits = scene.boundary.at(0.0)
+        cut = ~draining(scene.domain, exits, scene.populations[0].velocity.cells(exits))
+        assert cut.sum() == trapped
+        assert np.all(np.abs(scene.domain.centroid[cut] - [5.5, 3.0]).max(axis=1) < 0.1)
+
+
+@pytest.mark.slow
+def test_the_column_case_empties_on_a_refined_mesh():
+    """cases/room-column on mesh.refine = 1 (7268 triangles, a few minutes): with "slip" everybody leaves and the
+    run reports an evacuation time; with "paper" 0.05 persons stay in front of the column until time.end."""
+    for walls in ("paper", "slip"):
+        case = load_case(CASES / "room-column", [f"velocity.walls={walls}", "mesh.refine=1", "time.end=90"])
+        summary = Simulation(case).run().summary
+        if walls == "paper":
+            assert summary["evacuation_time"] is None and summary["remaining"]["people"] > 0.01
+        else:
+            assert summary["evacuation_time"] is not None and summary["remaining"]["reason"] == "evacuated"
