@@ -25,6 +25,9 @@ Two kinds, chosen by ``[velocity].type``:
   d is infinite (no path to any exit) or grad d vanishes, U = 0: people who cannot reach an
   exit stay where they are (but are still pushed by the pressure if their region is saturated).
 
+With ``[velocity] walls = "slip"`` the cellwise U of ``exits`` (and of the route choice) has no component into a
+wall and a path of upwind flows to an exit from every cell (macro/walls.py; docs/model.md, "Walls").
+
 With ``[velocity] route = "congestion"`` the distance becomes Hughes' potential (Hughes 2002):
 :class:`CongestionVelocity`, re-solved every ``route_every`` seconds and at every door change.
 """
