@@ -103,6 +103,10 @@ SCHEMA = {
                      ("shortest", "congestion")),
         "route_every": Key(1.0, "number", 'with route = "congestion": the routes are re-solved every route_every '
                            "seconds of simulated time and at every door change", low=0, low_open=True),
+        "walls": Key("paper", "choice", 'for type exits: "paper": the direction of the P1 gradient of the distance '
+                     'as it is (in a cell at a wall it may point into the wall, whose facet carries nothing); "slip": '
+                     'no component into a wall (U . n <= 0 there, as in the continuum) and every cell that can reach '
+                     'an exit has a path of upwind flows to one (docs/model.md, "Walls")', ("paper", "slip")),
     },
     "populations": NamedTables(POPULATION, "several populations, one table [populations.<name>] each (name: letters, "
                           "digits, _ and -), sharing one constraint and one pressure; without it the crowd of "

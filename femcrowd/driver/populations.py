@@ -61,8 +61,9 @@ def desired_velocity(case: Case, domain: Domain, boundary: Boundary, spec=None, 
                          "(for such a scene give U itself: type = 'field')")
     if case["velocity"]["route"] == "congestion":
         law = SpeedLaw(spec["speed_law"], case["model"]["rho_max"], spec["push"], (case.file, key("speed_law")))
-        return CongestionVelocity(domain, speed, targets, law, case["velocity"]["route_every"])
-    velocity = ExitsVelocity(domain, speed, targets)
+        return CongestionVelocity(domain, speed, targets, law, case["velocity"]["route_every"],
+                                  case["velocity"]["walls"])
+    velocity = ExitsVelocity(domain, speed, targets, case["velocity"]["walls"])
     velocity.cells(boundary.at(0.0))
     return velocity
 

@@ -25,6 +25,9 @@ Two kinds, chosen by ``[velocity].type``:
   d is infinite (no path to any exit) or grad d vanishes, U = 0: people who cannot reach an
   exit stay where they are (but are still pushed by the pressure if their region is saturated).
 
+With ``[velocity] walls = "slip"`` the cellwise U of ``exits`` (and of the route choice) has no component into a
+wall and a path of upwind flows to an exit from every cell (macro/walls.py; docs/model.md, "Walls").
+
 With ``[velocity] route = "congestion"`` the distance becomes Hughes' potential (Hughes 2002):
 :class:`CongestionVelocity`, re-solved every ``route_every`` seconds and at every door change.
 """
@@ -34,6 +37,7 @@ import json
 import numpy as np
 
 from ..mesh.distance import Eikonal
+from .walls import wall_treatment
 
 #: the least f(rho) the route choice counts: a jam costs at most 1 / ROUTE_FLOOR times the free walk
 ROUTE_FLOOR = 0.05
@@ -63,10 +67,12 @@ class FieldVelocity:
 
 class ExitsVelocity:
     """U = -speed grad d/|grad d| from the distance d to the open exits (one field per set of open exits);
-    ``targets``: the names of the exits this population heads for (None: all exits)."""
+    ``targets``: the names of the exits this population heads for (None: all exits); ``walls``: "paper" (the
+    P1 direction as it is) or "slip" (no component into a wall, every cell drains: macro/walls.py)."""
 
-    def __init__(self, domain, speed, targets=None):
+    def __init__(self, domain, speed, targets=None, walls="paper"):
         self.domain = domain
+        self.walls = walls
         self.speed = speed(domain.centroid[:, 0], domain.centroid[:, 1], 0.0)
         self.targets = None if targets is None else frozenset(targets)
         self.eikonal = Eikonal(domain.points, domain.triangles)
@@ -85,15 +91,18 @@ class ExitsVelocity:
             grad = self.domain.gradient(d)
             if len(heading) > 1:
                 self._on_ridges(exits, heading, grad)
-            self._cells[heading] = self._down(grad)
+            self._cells[heading] = self._down(grad, exits, d[self.domain.triangles].mean(axis=1))
         return self._cells[heading]
 
-    def _down(self, grad) -> np.ndarray:
-        """U = -speed grad / |grad| per cell (0 where the gradient is 0 or not finite)."""
+    def _down(self, grad, exits, level) -> np.ndarray:
+        """U = -speed grad / |grad| per cell (0 where the gradient is 0 or not finite), with the wall treatment
+        of ``walls`` (level: the potential per cell, which orders the cells that are made to drain)."""
         norm = np.hypot(grad[:, 0], grad[:, 1])
         ok = np.isfinite(norm) & (norm > 0)
         cells = np.zeros((self.domain.ncells, 2))
         cells[ok] = -(self.speed[ok] / norm[ok])[:, None] * grad[ok]
+        if self.walls == "slip":
+            return wall_treatment(self.domain, exits, cells, self.speed, level)
         return cells
 
     def _on_ridges(self, exits, heading, grad):
@@ -163,8 +172,8 @@ class CongestionVelocity(ExitsVelocity):
     re-solved every ``route_every`` seconds of simulated time and at every door change. At rho = 0 phi_e is the
     distance of :class:`ExitsVelocity`."""
 
-    def __init__(self, domain, speed, targets, law, route_every: float):
-        super().__init__(domain, speed, targets)
+    def __init__(self, domain, speed, targets, law, route_every: float, walls="paper"):
+        super().__init__(domain, speed, targets, walls)
         self.f = law if not law.constant else (lambda rho: 1.0 - np.clip(rho, 0.0, 1.0))
         self.route_every = float(route_every)
         self.mass = np.zeros(domain.ncells)   # the crowd per cell at the last route
@@ -231,7 +240,7 @@ class CongestionVelocity(ExitsVelocity):
             grad[to_e] = self.domain.gradient(phi[e], to_e)
         self.choice[heading] = choice
         self.distance[heading] = on_cells[choice, cells]
-        self._cells[heading] = self._down(grad)
+        self._cells[heading] = self._down(grad, exits, self.distance[heading])
         return self._cells[heading]
 
     def _phi(self, exits, heading) -> np.ndarray:

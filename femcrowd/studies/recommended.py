@@ -7,6 +7,10 @@
   factor of the speed law, so that a jam still pushes toward the exits; 0.2 passes 1.9 persons/(m s)
   through the 1 m bottleneck of ``femcrowd validate`` (converged on three meshes): calibrated there,
   validated at the other widths.
+- WALLS (``[velocity] walls``, macro only): "slip", no desired direction into a wall and a path of upwind flows
+  to an exit from every cell (docs/model.md, "Walls"); with the paper's direction a saturated cell in front of a
+  column or at a door post may keep its people for ever (issue 34). The discs keep the paper's direction: their
+  contacts with the walls are the projection's.
 - The discs (``model.type = "micro"``, which has no door capacity): the same law and push from the density
   each disc sees, the decelerating strategy of Maury et al. (2011) and an arch-breaking fluctuation
   FLUCTUATION (m/s, docs/micro.md): the smallest of those tried (0.5, 1.0) that lets every disc of
@@ -19,6 +23,9 @@ FLUCTUATION = 0.5
 
 #: the overrides of the recommended settings, for either model (the capacity is per door: see door_capacity)
 SPEED = {"velocity.speed_law": "weidmann", "velocity.push": PUSH}
+WALLS = {"velocity.walls": "slip"}
+#: the recommended desired velocity of the density model
+MACRO = {**SPEED, **WALLS}
 DISCS = {**SPEED, "micro.strategy": "decelerate", "micro.fluctuation": FLUCTUATION}
 
 

@@ -24,7 +24,7 @@ from .. import shipped
 from ..case import load_case
 from ..driver import Simulation
 from ..timer import Stopwatch
-from .recommended import DISCS, DOOR_CAPACITY, FLUCTUATION, PUSH, SPEED, door_capacity
+from .recommended import DISCS, DOOR_CAPACITY, FLUCTUATION, MACRO, PUSH, SPEED, door_capacity
 
 #: the cases (shipped with femcrowd)
 CASES = shipped.cases("rimea")
@@ -52,12 +52,12 @@ VARIANTS = {
     "macro-capacity": Variant(f"macro, doors {DOOR_CAPACITY:g} /(m s)", {}, doors=True),
     "macro-pushing": Variant(f"macro, Weidmann, push {PUSH:g}", SPEED),
     "macro-recommended": Variant(f"macro, Weidmann, push {PUSH:g}, doors {DOOR_CAPACITY:g} /(m s) (recommended)",
-                                 SPEED, doors=True),
+                                 MACRO, doors=True),
     "micro": Variant("discs (the paper's)", {"model.type": "micro"}),
     "micro-recommended": Variant(f"discs, Weidmann, push {PUSH:g}, decelerating, fluctuation {FLUCTUATION:g} m/s "
                                  "(recommended)", {"model.type": "micro", **DISCS}),
     "macro-routes": Variant(f"macro, Weidmann, push {PUSH:g}, doors {DOOR_CAPACITY:g} /(m s), route choice "
-                            "(recommended + congestion)", {**SPEED, **ROUTES}, doors=True),
+                            "(recommended + congestion)", {**MACRO, **ROUTES}, doors=True),
     "micro-routes": Variant(f"discs, Weidmann, push {PUSH:g}, decelerating, fluctuation {FLUCTUATION:g} m/s, route "
                             "choice (recommended + congestion)", {"model.type": "micro", **DISCS, **ROUTES}),
 }

@@ -28,7 +28,7 @@ from ..mesh.floorplan import build_mesh
 from ..plot.validation import flows_plot
 from ..timer import Stopwatch
 from .execute import execute
-from .recommended import DISCS, DOOR_CAPACITY, PUSH, SPEED, door_capacity
+from .recommended import DISCS, DOOR_CAPACITY, MACRO, PUSH, SPEED, door_capacity
 
 #: the published figures (source, year, width_m, specific_flow, flow, kind, where, note)
 EXPERIMENTS = Path(__file__).with_name("experiments.csv")
@@ -87,7 +87,7 @@ SETTINGS = {
     "pushing": Setting(f"macro, Weidmann's law, push {PUSH:g}", _set(SPEED)),
     "capacity": Setting(f"macro, constant speed, door capacity {DOOR_CAPACITY:g} /(m s)", (_capacity(),)),
     "recommended": Setting(f"macro, Weidmann's law, push {PUSH:g}, door capacity {DOOR_CAPACITY:g} /(m s) "
-                           "(recommended)", (*_set(SPEED), _capacity())),
+                           "(recommended)", (*_set(MACRO), _capacity())),
     "discs-paper": Setting("discs r = 0.2 m, pushing (the paper's discs)",
                            ("model.type=micro", "micro.radius=0.2"), discs=True),
     "discs": Setting(f"discs r = 0.2 m, Weidmann's law, push {PUSH:g}, decelerating, fluctuation "

@@ -1,0 +1,104 @@
+"""The desired direction at walls (``[velocity] walls``, docs/model.md, "Walls").
+
+In the continuum, U = -v grad d / |grad d| never points into a wall: at a wall point the shortest path to
+an exit either leaves the wall (U . n < 0, n the outward normal) or runs along it (U . n = 0, where the path
+bends around a corner). The P1 gradient of the discrete d breaks this in cells that touch a wall: at a
+column's or door post's face, where the shortest paths go around either side (the gradient averages the
+two), and along a wall beside a door. With the upwind fluxes of the transport (walls carry nothing) such a
+cell sends part or all of its outflow into the wall, and a cell whose every outflow facet is a wall, or
+whose outflow goes to a neighbour that sends it back, keeps its mass for ever.
+
+``walls = "slip"`` gives every cell two properties, on the cellwise U that every transport reads:
+
+- **slip**: U_K . n_e <= 0 on each wall facet e of K: the into-wall component is removed, U_K <- U_K -
+  (U_K . n_e)^+ n_e, and U_K rescaled to the cell's speed (|grad d| = 1 in the continuum);
+- **every cell drains**: in the graph of the upwind flows (K -> L across an interior facet with
+  U_K . n_{K,L} > 0, K -> outside across an open exit with U_K . n > 0), every cell that can reach an exit
+  through the mesh and has a speed has a path to an exit. A cell without one (in a closed loop of
+  flows, or with U = 0 after the slip) heads for the midpoint of its facet to a neighbour that has one, the
+  exit first, else the neighbour of least potential: U_K = v_K (m_e - c_K) / |m_e - c_K|, whose only
+  outflow facet is e (U_K . n_f = -v_K h_f / (6 |m_e - c_K|) < 0 on the two others, h_f K's height
+  over f), layer by layer from the draining cells. Only such cells change.
+"""
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import breadth_first_order
+
+#: a component into a wall below this fraction of the speed is round-off
+ROUND_OFF = 1e-12
+
+
+def slip(domain, exits, cells, speed) -> np.ndarray:
+    """U per cell with no component into the wall facets of its cell (to ROUND_OFF of the speed), at the cell's
+    speed; 0 where nothing is left (U normal to the wall, or a corner cell pointing into both its walls)."""
+    facets = np.flatnonzero(exits.wall)
+    k, n = domain.f2t[0][facets], domain.normal[facets]
+    cells = cells.copy()
+    touched = np.zeros(len(cells), bool)
+    for _ in range(2):   # a cell has at most two wall facets (three: a triangle alone, with no exit)
+        into = np.einsum("ij,ij->i", cells[k], n)
+        worst = np.argsort(-into, kind="stable")
+        worst = worst[np.unique(k[worst], return_index=True)[1]]   # per cell its facet of largest U . n
+        worst = worst[into[worst] > ROUND_OFF * speed[k[worst]]]
+        cells[k[worst]] -= into[worst, None] * n[worst]
+        touched[k[worst]] = True
+    into = np.einsum("ij,ij->i", cells[k], n) > ROUND_OFF * speed[k]
+    norm = np.hypot(cells[:, 0], cells[:, 1])
+    lost = touched & ((np.bincount(k, into, len(cells)) > 0) | (norm <= ROUND_OFF * speed))
+    rescale = touched & ~lost
+    cells[rescale] *= (speed[rescale] / norm[rescale])[:, None]
+    cells[lost] = 0.0
+    return cells
+
+
+def draining(domain, exits, cells) -> np.ndarray:
+    """Per cell: has it a path to an exit in the graph of the upwind flows of U (cells: U per cell)?"""
+    n = domain.ncells
+    k0, k1 = domain.f2t
+    inner = domain.interior
+    a0 = np.einsum("ij,ij->i", cells[k0], domain.normal)
+    a1 = np.einsum("ij,ij->i", cells[np.where(inner, k1, k0)], domain.normal)
+    ahead, back = inner & (a0 > 0), inner & (a1 < 0)
+    out = exits.exit & (a0 > 0)
+    # the reversed flows (L <- K as L -> K), the outside as node n
+    rows = np.concatenate([k1[ahead], k0[back], np.full(out.sum(), n)])
+    cols = np.concatenate([k0[ahead], k1[back], k0[out]])
+    graph = sp.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n + 1, n + 1))
+    reached = np.zeros(n + 1, bool)
+    reached[breadth_first_order(graph, n, directed=True, return_predecessors=False)] = True
+    return reached[:n]
+
+
+def drain(domain, exits, cells, speed, level) -> np.ndarray:
+    """U per cell such that every cell with a speed and a finite level (potential) drains: the cells that do not
+    head for the midpoint of a facet to an exit or to a draining neighbour of least level, layer by layer."""
+    drains = draining(domain, exits, cells)
+    todo = ~drains & (speed > 0) & np.isfinite(level)
+    if not todo.any():
+        return cells
+    cells = cells.copy()
+    k0, k1 = domain.f2t
+    inner = domain.interior
+    # each facet seen from each of its cells: (cell, the cell across or -1 for an open exit, facet)
+    sides = np.concatenate([np.flatnonzero(inner | exits.exit), np.flatnonzero(inner)])
+    own = np.concatenate([k0[inner | exits.exit], k1[inner]])
+    other = np.concatenate([np.where(inner, k1, -1)[inner | exits.exit], k0[inner]])
+    while todo.any():
+        ready = todo[own] & ((other < 0) | drains[np.maximum(other, 0)])
+        if not ready.any():
+            break   # the rest is cut off from the draining cells by cells without a speed
+        cell, facet = own[ready], sides[ready]
+        key = np.where(other[ready] < 0, -np.inf, level[np.maximum(other[ready], 0)])
+        order = np.lexsort((facet, key, cell))
+        first = order[np.unique(cell[order], return_index=True)[1]]   # per cell: the least level, then facet
+        cell, facet = cell[first], facet[first]
+        toward = domain.midpoint[facet] - domain.centroid[cell]
+        cells[cell] = (speed[cell] / np.hypot(toward[:, 0], toward[:, 1]))[:, None] * toward
+        drains[cell], todo[cell] = True, False
+    return cells
+
+
+def wall_treatment(domain, exits, cells, speed, level) -> np.ndarray:
+    """``walls = "slip"``: the slip of U at the walls, then every cell drains (see the module)."""
+    return drain(domain, exits, slip(domain, exits, cells, speed), speed, level)
