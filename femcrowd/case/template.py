@@ -4,7 +4,7 @@ beside them; exits = the mesh's boundary groups not named wall* nor entrance*; a
 U = 0 to edit (not a direction made up for it). Every other key is in the case-format documentation.
 
 Two models (MODELS): "recommended", the settings of docs/validation.md (femcrowd/studies/recommended.py:
-rho_max 5.4 persons/m^2, Weidmann's law at 1.34 m/s with its push, the door capacity on every exit and
+rho_max 5.4 persons/m^2, Weidmann's law at 1.34 m/s with its push, the walls' slip, the door capacity on every exit and
 interior line group, by name); "paper", the model of Maury et al. (2010) at the SCHEMA's defaults (rho_max 1,
 constant speed, free exits), the capacities offered as a comment."""
 
@@ -14,7 +14,7 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..files import make_directory, write_text
-from ..studies.recommended import DOOR_CAPACITY, FLUCTUATION, PUSH
+from ..studies.recommended import DOOR_CAPACITY, FLUCTUATION, PUSH, WALLS
 from .loading import toml_value
 from .schema import SCHEMA
 
@@ -135,7 +135,9 @@ def _recommended(lines: list, domain) -> list:
         "rho_max": [("rho_max = 5.4", "persons/m^2 (Weidmann 1993); the paper's model: rho_max = 1.0")],
         "speed": [(f"speed = {SPEED}", "m/s, Weidmann's free speed: number or expression in x, y"),
                   ('speed_law = "weidmann"', "slower in a dense crowd (Weidmann 1993)"),
-                  (f"push = {PUSH}", "a jam still pushes at push x speed (docs/validation.md)")],
+                  (f"push = {PUSH}", "a jam still pushes at push x speed (docs/validation.md)"),
+                  (f"walls = {toml_value(WALLS['velocity.walls'])}", "no desired direction into a wall (docs/model.md, "
+                   '"Walls"); the paper\'s: "paper"')],
         "# speed_law": [], "# push": [],
         "density": [(f"density = {DENSITY}", f"persons/m^2 ({DENSITY * area:.0f} people): number or expression "
                      'in x, y, e.g. "2.0 * (x < 4)"'),
