@@ -85,7 +85,7 @@ class Profile:
     def amount(self, a: float, b: float) -> float:
         """The integral of g / level over [a, b], a < b."""
         if self.expression is not None:
-            from scipy.integrate import fixed_quad   # here: the case layer imports this module, and no scipy
+            from scipy.integrate import fixed_quad  # here: the case layer imports this module, and no scipy
 
             return float(fixed_quad(self, a, b, n=GAUSS_POINTS)[0])
         if self.times is None:

@@ -78,7 +78,8 @@ class Canvas:
         z = 3e-3 * self.size
         tick = 5 / self.scale
         right = left + length
-        bar = np.array([[[left, y], [right, y]], [[left, y - tick], [left, y + tick]], [[right, y - tick], [right, y + tick]]])
+        bar = np.array([[[left, y], [right, y]], [[left, y - tick], [left, y + tick]],
+                        [[right, y - tick], [right, y + tick]]])
         self.plotter.add_mesh(_lines(bar, z), color=TEXT, line_width=2, lighting=False)
         self.plotter.add_point_labels([[left + length / 2, y + 4 / self.scale, z]], [f"{length:g} m"],
                                       font_size=max(12, width // 60), text_color=TEXT, shape=None,

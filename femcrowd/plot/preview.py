@@ -146,7 +146,8 @@ def scene_figure(case):
         ax.annotate(area.name, ((left + right) / 2, top), color=MEASURE, fontsize=9, ha="center", va="top",
                     xytext=(0, -3), textcoords="offset points", zorder=6)
     if scene.lines:
-        legend.append(Line2D([], [], color=MEASURE, lw=2, ls="--", label="counting line (the arrow across it: counted positive)"))
+        legend.append(Line2D([], [], color=MEASURE, lw=2, ls="--",
+                             label="counting line (the arrow across it: counted positive)"))
     if scene.areas:
         legend.append(Patch(facecolor=MEASURE, alpha=0.3, edgecolor=MEASURE, label="measurement area"))
     ax.set_aspect("equal")
