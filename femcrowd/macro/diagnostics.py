@@ -13,13 +13,14 @@ def invariants(domain, state) -> dict:
     complementarity max |p (1 - rho)|, and non-finite values of the state."""
     rho, p, area = state.density, state.p, domain.area
     saturated = rho >= SATURATED
+    unsaturated_p = p[~saturated]
     mass, p_max, p_min = dot(area, rho), float(p.max()), float(p.min())
     return {
         "mass": mass, "evacuated": float(state.evacuated.sum()),
         "max_density": float(rho.max()), "min_density": float(rho.min()),
         "saturated_area": float(area[saturated].sum()),
         "max_pressure": p_max, "min_pressure": p_min,
-        "pressure_unsaturated": float(np.max(np.abs(p), where=~saturated, initial=0.0)),
+        "pressure_unsaturated": float(np.abs(unsaturated_p).max()) if unsaturated_p.size else 0.0,
         "complementarity": float(np.max(np.abs(p * (1.0 - rho)))),
         "non_finite": non_finite(state, mass, p_max, p_min),
     }

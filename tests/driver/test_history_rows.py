@@ -34,8 +34,8 @@ def test_every_frame_finds_the_rows_up_to_its_time(tmp_path, monkeypatch):
 
 
 def test_rows_that_cannot_be_written_stop_the_run_in_one_line(tmp_path, monkeypatch):
-    """ENOSPC the fourth time the rows go out (the checkpoint after the second frame): one line naming history.csv, exit 2, summary.json says the
-    run failed, and the rows written before (up to the second frame) are whole."""
+    """ENOSPC the fourth time the rows go out (the checkpoint after the second frame): one line naming history.csv,
+    exit 2, summary.json says the run failed, and the rows written before (up to the second frame) are whole."""
     out, calls = tmp_path / "out", [0]
     flush = output.HistoryFile.flush
 
