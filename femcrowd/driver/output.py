@@ -183,16 +183,20 @@ class HistoryFile:
         self._rows.append([row[c] for c in self.columns])
 
     def flush(self) -> None:
-        """Write the rows kept so far."""
+        """Write the rows kept so far (once closed, nothing: a write failed)."""
+        if self._file.closed:
+            return
         with writing(self.path):
             self._writer.writerows([_fmt(v) for v in values] for values in self._rows)
             self._file.flush()
         self._rows.clear()
 
     def close(self) -> None:
-        self.flush()
-        with writing(self.path):
-            self._file.close()
+        try:
+            self.flush()
+        finally:
+            with writing(self.path):
+                self._file.close()
 
 
 def _fmt(value):

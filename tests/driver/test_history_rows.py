@@ -52,3 +52,29 @@ def test_rows_that_cannot_be_written_stop_the_run_in_one_line(tmp_path, monkeypa
     assert json.loads((out / "summary.json").read_text())["status"].startswith("failed: InputError")
     times = read_history(out / "history.csv")["time"]
     assert times[-1] == read_pvd(out / "solution.pvd")[1][0] and np.all(np.diff(times) > 0)
+
+
+def test_a_completed_run_whose_last_rows_fail_ends_failed(tmp_path, monkeypatch):
+    """The write of the rows at the close fails (a run that had completed): one line naming history.csv, exit 2,
+    summary.json written with the run failed, the rows up to the last frame whole."""
+    out = tmp_path / "out"
+    flush, close = output.HistoryFile.flush, output.HistoryFile.close
+
+    def closing(self):
+        self.closing = True
+        return close(self)
+
+    def full(self):
+        if getattr(self, "closing", False):
+            raise output.InputError(self.path, None, None, f"cannot write: {os.strerror(errno.ENOSPC)}")
+        return flush(self)
+
+    monkeypatch.setattr(output.HistoryFile, "flush", full)
+    monkeypatch.setattr(output.HistoryFile, "close", closing)
+    result = invoke("run", QUICK, "--out", out, "-q")
+    assert result.exit_code == 2
+    one_line(result.stderr, out / "history.csv", "No space left on device")
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"].startswith("failed: InputError")
+    last = read_pvd(out / "solution.pvd")[-1][0]
+    assert read_history(out / "history.csv")["time"][-1] == last == summary["final_time"]
