@@ -24,16 +24,17 @@ from pathlib import Path
 from alternating import in_process, median, rounds  # this script's folder is on sys.path
 
 PHASES = ("transport", "projection", "recording", "output")
-RECOMMENDED = ("velocity.speed_law=weidmann", "velocity.push=0.2", "boundary.capacity={exit=1.9}")
 
 
 def worker(end: float) -> None:
     """One run of the recommended 1 m bottleneck to `end` (or until empty); prints its figures (JSON)."""
     import femcrowd
+    from femcrowd.studies.recommended import SPEED, door_capacity
     from femcrowd.studies.validation import scene
 
     with tempfile.TemporaryDirectory() as tmp:
-        simulation = femcrowd.Simulation(femcrowd.load_case(scene(1.0, Path(tmp)), [*RECOMMENDED, f"time.end={end:g}"]))
+        case = femcrowd.load_case(scene(1.0, Path(tmp)), {**SPEED, **door_capacity(["exit"]), "time.end": end})
+        simulation = femcrowd.Simulation(case)
         cpu, wall = time.process_time(), time.perf_counter()
         result = simulation.run(Path(tmp) / "out")
         cpu, loop = time.process_time() - cpu, time.perf_counter() - wall
