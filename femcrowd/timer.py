@@ -23,9 +23,8 @@ class Timer:
     """Seconds per phase; ``seconds`` maps each phase to its total. A phase timed inside another (the
     measurements inside a step's projection) is booked to itself alone: the phases add up to the time spent.
 
-    ``with timer(phase):`` makes no object outside the clock readings: an allocation there could set off Python's
-    garbage collector, whose pause would then fall between the phases, in no phase (a few percent of a small
-    scene's steps)."""
+    ``with timer(phase):`` is the Timer itself as the context (no generator per phase, as contextlib's would make):
+    what it costs outside its clock readings falls in no phase, and a small scene opens several phases a step."""
 
     def __init__(self):
         self.seconds = defaultdict(float)
