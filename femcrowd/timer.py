@@ -21,23 +21,31 @@ def timed(seconds: dict, phase: str):
 
 class Timer:
     """Seconds per phase; ``seconds`` maps each phase to its total. A phase timed inside another (the
-    measurements inside a step's projection) is booked to itself alone: the phases add up to the time spent."""
+    measurements inside a step's projection) is booked to itself alone: the phases add up to the time spent.
+
+    ``with timer(phase):`` is the Timer itself as the context (no generator per phase, as contextlib's would make):
+    what it costs outside its clock readings falls in no phase, and a small scene opens several phases a step."""
 
     def __init__(self):
         self.seconds = defaultdict(float)
-        self._inner = []   # per open phase, the seconds of the phases timed inside it
+        self._phases = []   # the phases asked for and open, innermost last
+        self._starts = []   # per open phase, when it started
+        self._inner = []    # per open phase, the seconds of the phases timed inside it
 
-    @contextmanager
-    def __call__(self, phase: str):
-        tic = time.perf_counter()
+    def __call__(self, phase: str) -> "Timer":
+        self._phases.append(phase)
+        return self
+
+    def __enter__(self) -> None:
         self._inner.append(0.0)
-        try:
-            yield
-        finally:
-            elapsed, inner = time.perf_counter() - tic, self._inner.pop()
-            self.seconds[phase] += elapsed - inner
-            if self._inner:
-                self._inner[-1] += elapsed
+        self._starts.append(time.perf_counter())
+
+    def __exit__(self, *exc) -> bool:
+        elapsed = time.perf_counter() - self._starts.pop()
+        self.seconds[self._phases.pop()] += elapsed - self._inner.pop()
+        if self._inner:
+            self._inner[-1] += elapsed
+        return False
 
     def __getitem__(self, phase: str) -> float:
         return self.seconds[phase]

@@ -147,8 +147,9 @@ class MacroModel:
         inside (the empty check) and the evacuation time (the first time less than empty_mass is inside, nobody
         arriving)."""
         info = self.solver.step(self.state, landing(self.scene.boundary, self.t, until))
-        self.inside = self.mass
-        self.evacuation.after_step(self.t, self.inside, self.empty_mass)
+        with self.solver.timers("projection"):   # with the state update: a phase, like every second of the step
+            self.inside = self.mass
+            self.evacuation.after_step(self.t, self.inside, self.empty_mass)
         return info
 
     def row(self, info: MacroStep | None = None) -> dict:

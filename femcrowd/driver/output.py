@@ -2,7 +2,7 @@
 
 Every file is written so that an interrupted run leaves what it wrote readable:
 frames, the PVD index, summary.json and the checkpoint are written under names of
-their own and moved in place, history.csv is flushed row by row (ownership.py: the
+their own and moved in place, history.csv is flushed with every frame (ownership.py: the
 lock that makes a directory one run's, writes that never follow a link out of
 it, write errors as one line). A directory holding files that
 femcrowd did not write is never written into unless the user forces it. A new
@@ -171,8 +171,10 @@ def disc_frame(q, r, u, pressure, extra=None) -> meshio.Mesh:
 
 
 class HistoryFile:
-    """history.csv, one row per step, flushed so that an interrupted run keeps it; rows: those of the
-    steps already done (a resumed run), written with the header into a new file (files.replaced)."""
+    """history.csv, one row per step; rows: those of the steps already done (a resumed run), written with the
+    header into a new file (files.replaced). The rows of the steps are kept until flush(), which the run
+    calls with every frame and checkpoint (an interrupted run's rows are all there) and at the end: one write
+    per frame, not one per step."""
 
     def __init__(self, path, columns, rows=()):
         self.path, self.columns = Path(path), columns
@@ -182,15 +184,26 @@ class HistoryFile:
             writer.writerows([_fmt(row[c]) for c in columns] for row in rows)
         self._file = appending(path, newline="")
         self._writer = csv.writer(self._file)
+        self._rows = []   # the values of the rows not yet written
 
     def append(self, row) -> None:
+        self._rows.append([row[c] for c in self.columns])
+
+    def flush(self) -> None:
+        """Write the rows kept so far (once closed, nothing: a write failed)."""
+        if self._file.closed:
+            return
         with writing(self.path):
-            self._writer.writerow([_fmt(row[c]) for c in self.columns])
+            self._writer.writerows([_fmt(v) for v in values] for values in self._rows)
             self._file.flush()
+        self._rows.clear()
 
     def close(self) -> None:
-        with writing(self.path):
-            self._file.close()
+        try:
+            self.flush()
+        finally:
+            with writing(self.path):
+                self._file.close()
 
 
 def _fmt(value):

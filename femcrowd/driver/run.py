@@ -124,8 +124,13 @@ class Simulation:
         return {k: before.get(k, 0.0) + now.get(k, 0.0) for k in {**before, **now}}
 
     def _finish(self, files, recorder, summary, status, position) -> Result:
-        """Close the files, write summary.json; the Result."""
-        files.close()
+        """Close the files, write summary.json; the Result. A completed run whose files cannot be closed (their last
+        rows written) ends as failed, with that error."""
+        try:
+            files.close(failed=status != "completed")
+        except InputError as err:
+            self._finish(files, recorder, summary, f"failed: {type(err).__name__}: {err}", position)
+            raise
         with self.timer("output"):
             recorded = recorder.summary()
             summary.update(status=status, **recorded, **self.model.summary(recorded))

@@ -2,7 +2,6 @@
 measurements.csv, the model's own files (disc trajectories), the checkpoints and summary.json; or nothing at
 all, for a run without an output directory (the Python API, the studies)."""
 
-from contextlib import suppress
 from pathlib import Path
 
 from ..errors import InputError
@@ -20,18 +19,18 @@ class RunFiles:
                  resume: bool = False, lock=None):
         self.directory, self.model, self.recorder = directory, model, recorder
         self.identity, self.timer, self.timing, self.lock = identity, timer, timing, lock
-        self.frames, self.sinks = None, []
+        self.frames, self.sinks, self.tables = None, [], []
         if directory is None:
             return
         write_text(directory / "case.toml", case.resolved_toml(directory))   # runs again on its own
         self.frames = FrameSeries(directory, model.stem, (position or {}).get("frames"))
         recorder.sink = HistoryFile(directory / "history.csv", recorder.history_columns, recorder.records())
-        self.sinks.append(recorder.sink)
+        self.tables.append(recorder.sink)
         measured = model.measurements.recorder if model.measurements is not None else None
         if measured is not None:   # the rows recorded so far first, then one per step
             measured.sink = HistoryFile(directory / "measurements.csv", measured.history_columns, measured.records())
-            self.sinks.append(measured.sink)
-        self.sinks += model.open_files(directory, resume)   # e.g. the disc trajectories
+            self.tables.append(measured.sink)
+        self.sinks = [*self.tables, *model.open_files(directory, resume)]   # e.g. the disc trajectories
 
     @classmethod
     def open(cls, out, case, model, recorder, identity, timer, timing, force=False, resume=False):
@@ -59,25 +58,37 @@ class RunFiles:
         return files, position
 
     def frame(self) -> None:
-        """The model's frame at its time."""
+        """The rows of the tables so far, and the model's frame at its time."""
         if self.frames is not None:
             with self.timer("output"):
+                self.flush()
                 self.frames.write(self.model.t, self.model.frame())
+
+    def flush(self) -> None:
+        """Write the rows the tables (history.csv, measurements.csv) keep."""
+        for table in self.tables:
+            table.flush()
 
     def checkpoint(self, next_frame: int) -> None:
         """Everything to continue from here (checkpoint.py)."""
         if self.directory is not None:
             with self.timer("output"):
+                self.flush()
                 checkpoint.write(self.directory, self.identity, self.model.snapshot(), self.recorder.rows,
                                  {"frames": self.frames.frames, "next_frame": next_frame, "timing": self.timing()})
 
-    def close(self) -> None:
-        """Close the files. Their rows are flushed as they are written: a close fails only after a write
-        that failed, and that write's error is the one reported."""
+    def close(self, failed: bool = False) -> None:
+        """Write the rows kept and close the files; a write that fails is one line (InputError), but for a run
+        that failed already (failed), which keeps its own error."""
+        errors = []
         with self.timer("output"):
             for sink in self.sinks:
-                with suppress(InputError):
+                try:
                     sink.close()
+                except InputError as err:
+                    errors.append(err)
+        if errors and not failed:
+            raise errors[0]
 
     def summary(self, summary: dict) -> None:
         """Write summary.json (a failed run keeps its own error if this write fails too), then let the directory

@@ -7,6 +7,7 @@ that grows by a few cells (bordering, a Schur complement on the new cells).
 import numpy as np
 
 from .cholmod import Cholesky, lower_pattern
+from .rows import rows as gather
 
 #: a factorisation is replaced by a tighter one when S shrinks below SHRINK times the S it was made for
 SHRINK = 0.6
@@ -83,7 +84,7 @@ class EnvelopeCholesky:
         if old.all():
             return self._substitute(rhs)
         new = at[~old]
-        rows = self.A[self.cells[new]]
+        rows = gather(self.A, self.cells[new])
         k = len(new)
         row = np.repeat(np.arange(k), np.diff(rows.indptr))
         position = self.position[rows.indices]

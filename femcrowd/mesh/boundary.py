@@ -68,6 +68,7 @@ class Doors:
             if door.name in self.open:
                 self.group[door.facets] = g
         self.exit = self.group >= 0
+        self.exit_facets = np.flatnonzero(self.exit)
         self.wall = ~domain.interior & ~self.exit
         self.transmissibility = np.where(self.wall, 0.0, domain.transmissibility)
         capped = [door for door in doors if door.capped and (not door.exit or door.name in self.open)]
@@ -94,7 +95,7 @@ class Doors:
 
     def outflow_matrix(self, weights: np.ndarray) -> sp.csr_matrix:
         """Sparse (exits x cells) matrix: row g sums weights_e * value_K(e) over the facets e of exit g."""
-        e = np.flatnonzero(self.exit)
+        e = self.exit_facets
         return sp.csr_matrix((weights[e], (self.group[e], self.domain.f2t[0][e])),
                              shape=(len(self.names), self.domain.ncells))
 
@@ -115,9 +116,8 @@ class Doors:
             self._pressure_outflow = self.outflow_matrix(self.transmissibility)
         out = self._pressure_outflow @ phi
         if jump is not None:
-            exit_facets = np.flatnonzero(self.exit)
-            out -= np.bincount(self.group[exit_facets], self.transmissibility[exit_facets] * jump[exit_facets],
-                               len(self.names))
+            e = self.exit_facets
+            out -= np.bincount(self.group[e], self.transmissibility[e] * jump[e], len(self.names))
         return out
 
     def edges(self) -> np.ndarray:

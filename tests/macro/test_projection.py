@@ -110,3 +110,18 @@ def test_facet_fluxes_are_the_correction():
     assert np.all(G[exits.wall] == 0) and G[exits.exit].sum() > 0
     rho = flux.apply(rho_tilde, domain.area)
     assert domain.area @ rho + G[exits.exit].sum() == pytest.approx(domain.area @ rho_tilde, rel=1e-14)
+
+
+@pytest.mark.parametrize("cells", [[], [5], [7, 2, 2, 0], "all", "reversed"])
+def test_gathered_rows_are_scipys(cells):
+    """linalg/rows.py, the projection's A[S] without scipy's indexing: the same indptr, indices and data, in the
+    same order, for any list of cells (empty, repeated, unsorted), on the Laplacian of a mesh with an exit."""
+    from femcrowd.linalg.rows import rows
+
+    domain = square_domain(8, exits=("right",))
+    A = Boundary(domain).at(0).laplacian()
+    n = A.shape[0]
+    cells = np.arange(n) if cells == "all" else np.arange(n)[::-1] if cells == "reversed" else np.array(cells, np.intp)
+    ours, theirs = rows(A, cells), A[cells]
+    for name in ("indptr", "indices", "data"):
+        assert np.array_equal(getattr(ours, name), getattr(theirs, name)), name

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...linalg.rows import rows as gather
 from ...timer import Stopwatch, timed
 from .rooms import ClosedRooms
 from .sets import CellSets, product, restriction
@@ -155,7 +156,7 @@ class Projection:
         """The primal-dual active-set iterations from the guess S (x0: phi on it) until S is reproduced by a tight
         solve: (S, phi on S, its neighbourhood L, A phi on L); info counts the iterations."""
         for iteration in range(1, self.max_iterations + 1):
-            rows = self.A[S]
+            rows = gather(self.A, S)
             L, col, in_S, s_in_L = self.sets.neighbourhood(rows, S)
             tight = tight or len(S) <= self.direct_max  # a factorisation solves exactly anyway
             phi_S, keep = self._solve(rows, S, col, in_S, -b[S], x0, info,

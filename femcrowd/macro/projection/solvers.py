@@ -17,6 +17,7 @@ import pymetis
 
 from ...linalg.amg import Hierarchy, pcg
 from ...linalg.envelope import EnvelopeCholesky
+from ...linalg.rows import rows as gather
 from ...timer import timed
 
 #: layers of neighbours around S in the envelope of a factorisation (the front moves a few cells per step)
@@ -123,7 +124,7 @@ class SaturatedSolver:
         mark[cells] = True
         front = cells
         for _ in range(ENVELOPE_LAYERS):
-            neighbours = self.A[front].indices
+            neighbours = gather(self.A, front).indices
             front = np.unique(neighbours[~mark[neighbours]])
             mark[front] = True
         envelope = np.flatnonzero(mark)

@@ -15,6 +15,7 @@ the exact iterations that follow decide, docs/performance.md has the measured ef
 import numpy as np
 
 from ...linalg.cholmod import solve_spd
+from ...linalg.rows import rows as gather
 from .sets import adjacency_table, product
 
 #: sweeps of the overflow spread (spill), applied to at most MAX_SPILLS growing updates per step (a cap:
@@ -63,7 +64,7 @@ class WarmStart:
         x0 = self.sets.carry(self.active, self.phi_active, S)
         if not self.active.size:
             return S, x0, False
-        rows = self.A[S]
+        rows = gather(self.A, S)
         L, col, in_S, s_in_L = self.sets.neighbourhood(rows, S)
         w = b[L] + product(rows, col, len(L), x0)
         new = self.spill(S, next_set(S, x0, w, strict, L, in_S, s_in_L), b, L, w)
@@ -151,7 +152,7 @@ class WarmStart:
             front = front[level[front] < -self.tol * self.area[front]]
             if not front.size:
                 break
-            rows = self.A[front]
+            rows = gather(self.A, front)
             row = np.repeat(np.arange(len(front)), np.diff(rows.indptr))
             neighbour = (rows.indices != front[row]) & (rows.indices < self.cells)
             out = ~inside[rows.indices]

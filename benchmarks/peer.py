@@ -1,0 +1,211 @@
+"""femcrowd beside JuPedSim, the agent-based peer, on the same scenes: wall time, evacuation time and flow.
+
+Scenes (each a TOML floor plan, benchmarks/.cache/peer; JuPedSim reads the same outline and exits):
+- bottleneck: the 1 m bottleneck of docs/validation.md (femcrowd/studies/validation.py: a waiting area of
+  8 m x 6 m, a corridor 2 m long, 90 people at 2.5 /m^2 on its first 6 m);
+- hall: a 40 m x 30 m hall with two 2 m exits, in the middle of its short walls, and `--people` people spread
+  evenly over its middle 30 m x 20 m.
+
+femcrowd runs the macro model with the recommended settings of docs/validation.md (Weidmann's law, push 0.2,
+door capacity 1.9 /(m s) on every exit), as `femcrowd run` does (history.csv, a frame every 10 s); JuPedSim
+its default collision-free speed model (Tordeux et al. 2016) at dt = 0.01 s, agents of radius 0.2 m with
+the same desired speed 1.34 m/s, placed at random (`--seed`) in the crowd's area, each heading for the exit
+nearest to it and taken out when it reaches a strip 0.5 m deep inside that exit. Wall time: the set-up and the
+run (not the imports, nor the meshing, done once), with the process's CPU time beside it (less sensitive to the
+other jobs of a shared machine); evacuation time: femcrowd's (less than 10^-4 of the crowd inside), the last
+agent out; flow: the slope of the people out against time from 20 % to 80 % of them out
+(femcrowd/studies/validation.py, flow), persons per second through all exits. Each run is a fresh process,
+femcrowd and JuPedSim alternated over `--repeat` rounds; the table gives the medians.
+
+JuPedSim is an optional benchmark dependency: pip install -e '.[peer]' (or pip install jupedsim).
+
+    python benchmarks/peer.py                                   # bottleneck, hall with 100 people
+    python benchmarks/peer.py --scenes hall --people 100 1000 --repeat 3
+"""
+
+import argparse
+import importlib.util
+import json
+import os
+import sys
+import time
+import tomllib
+from pathlib import Path
+
+import numpy as np
+from alternating import in_process, median, rounds  # this script's folder is on sys.path
+
+CACHE = Path(__file__).resolve().parent / ".cache" / "peer"
+SPEED, RADIUS, DT = 1.34, 0.2, 0.01
+#: simulated seconds after which a run that has not emptied stops
+MAX_TIME = 1000.0
+HALL_PLAN = """size = 0.35
+[outer]
+points = [[0, 0], [40, 0], [40, 30], [0, 30]]
+[[exits]]
+name = "west"
+from = [0, 14]
+to = [0, 16]
+size = 0.1
+[[exits]]
+name = "east"
+from = [40, 14]
+to = [40, 16]
+size = 0.1
+"""
+HALL_CROWD = (5.0, 35.0, 5.0, 25.0)   # x0, x1, y0, y1 of the crowd in the hall
+HALL_CASE = """title = "A 40 m x 30 m hall, two 2 m exits, {people} people (benchmarks/peer.py)"
+[mesh]
+file = "../hall.msh"
+[boundary]
+exits = ["west", "east"]
+[model]
+rho_max = 5.4
+[velocity]
+speed = {speed}
+[initial]
+density = "{density!r} * (x > {x0}) * (x < {x1}) * (y > {y0}) * (y < {y1})"
+[time]
+end = {end}
+[output]
+every = 10.0
+"""
+
+
+def scene(name: str, people: int) -> tuple:
+    """(case directory, plan file, crowd box, people) of a scene, made once under CACHE."""
+    from femcrowd.mesh.floorplan import build_mesh
+    from femcrowd.studies.validation import scene as bottleneck
+
+    if name == "bottleneck":
+        directory = bottleneck(1.0, CACHE)
+        return directory, directory / "bottleneck.toml", (0.0, 6.0, 0.0, 6.0), 90
+    plan, directory = CACHE / "hall.toml", CACHE / f"hall-{people}"
+    if not plan.with_suffix(".msh").exists():
+        CACHE.mkdir(parents=True, exist_ok=True)
+        plan.write_text(HALL_PLAN)
+        build_mesh(plan)
+    if not (directory / "case.toml").exists():
+        directory.mkdir()
+        x0, x1, y0, y1 = HALL_CROWD
+        (directory / "case.toml").write_text(HALL_CASE.format(
+            people=people, speed=SPEED, density=people / ((x1 - x0) * (y1 - y0)), x0=x0, x1=x1, y0=y0, y1=y1,
+            end=MAX_TIME))
+    return directory, plan, HALL_CROWD, people
+
+
+def run_femcrowd(directory: Path) -> dict:
+    """The macro model with the recommended settings, as `femcrowd run` runs it."""
+    import tempfile
+
+    import femcrowd
+    from femcrowd.studies.recommended import SPEED as LAW
+    from femcrowd.studies.recommended import door_capacity
+    from femcrowd.studies.validation import flow
+
+    tic, cpu = time.perf_counter(), time.process_time()
+    exits = femcrowd.load_case(directory)["boundary"]["exits"]
+    case = femcrowd.load_case(directory, {**LAW, **door_capacity(exits)})
+    with tempfile.TemporaryDirectory() as tmp:
+        result = femcrowd.run(case, out=Path(tmp) / "out")
+    wall, cpu = time.perf_counter() - tic, time.process_time() - cpu
+    h = result.history
+    people = float(h["mass"][0])
+    return {"wall": wall, "cpu": cpu, "evacuation": result.summary["evacuation_time"] or np.nan,
+            "flow": flow(h["time"], h["evacuated"], people), "people": people, "steps": result.summary["steps"],
+            "cells": result.domain.ncells}
+
+
+def run_jupedsim(plan_file: Path, box, people: int, seed: int) -> dict:
+    """JuPedSim's collision-free speed model on the plan's outline, the agents taken out at its exits."""
+    import jupedsim as jps
+    import shapely
+    from femcrowd.studies.validation import flow
+
+    plan = tomllib.loads(Path(plan_file).read_text())
+    area = shapely.Polygon(plan["outer"]["points"])
+    tic, cpu = time.perf_counter(), time.process_time()
+    simulation = jps.Simulation(model=jps.CollisionFreeSpeedModel(), geometry=area, dt=DT)
+    exits = [simulation.add_exit_stage(_strip(area, exit["from"], exit["to"])) for exit in plan["exits"]]
+    journeys = [simulation.add_journey(jps.JourneyDescription([stage])) for stage in exits]
+    doors = [shapely.LineString([exit["from"], exit["to"]]) for exit in plan["exits"]]
+    x0, x1, y0, y1 = box
+    positions = jps.distribute_by_number(polygon=shapely.box(x0, y0, x1, y1), number_of_agents=people,
+                                         distance_to_agents=2 * RADIUS, distance_to_polygon=RADIUS, seed=seed)
+    for position in positions:   # each agent to the exit nearest to it
+        k = int(np.argmin([shapely.Point(position).distance(door) for door in doors]))
+        simulation.add_agent(jps.CollisionFreeSpeedModelAgentParameters(
+            position=position, journey_id=journeys[k], stage_id=exits[k], desired_speed=SPEED, radius=RADIUS))
+    times, out = [0.0], [0]
+    while simulation.agent_count() > 0 and simulation.elapsed_time() < MAX_TIME:
+        simulation.iterate()
+        left = people - simulation.agent_count()
+        if left > out[-1]:
+            times.append(simulation.elapsed_time())
+            out.append(left)
+    wall, cpu = time.perf_counter() - tic, time.process_time() - cpu
+    times, out = np.array(times), np.array(out, float)
+    return {"wall": wall, "cpu": cpu, "evacuation": times[-1] if out[-1] == people else np.nan,
+            "flow": flow(times, out, people), "people": people, "steps": simulation.iteration_count()}
+
+
+def _strip(area, a, b, depth: float = 0.5):
+    """The strip `depth` deep inside the area along the exit segment a-b (JuPedSim's exit stage)."""
+    import shapely
+
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    normal = np.array([b[1] - a[1], a[0] - b[0]]) / np.linalg.norm(b - a)
+    if not area.contains(shapely.Point((a + b) / 2 + 0.01 * normal)):
+        normal = -normal
+    return shapely.Polygon([a, b, b + depth * normal, a + depth * normal])
+
+
+def worker(tool: str, name: str, people: int, seed: int) -> None:
+    directory, plan, box, people = scene(name, people)
+    figures = run_femcrowd(directory) if tool == "femcrowd" else run_jupedsim(plan, box, people, seed)
+    print(json.dumps({k: float(v) for k, v in figures.items()}))
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scenes", nargs="+", default=["bottleneck", "hall"], choices=["bottleneck", "hall"])
+    parser.add_argument("--people", nargs="+", type=int, default=[100], help="people in the hall")
+    parser.add_argument("--repeat", type=int, default=1, help="rounds of the two programs")
+    parser.add_argument("--seed", type=int, default=1, help="JuPedSim's placement of the agents")
+    parser.add_argument("--worker", nargs=4, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.worker:
+        tool, name, people, seed = args.worker
+        return worker(tool, name, int(people), int(seed))
+    if importlib.util.find_spec("jupedsim") is None:
+        print("benchmarks/peer.py needs JuPedSim: pip install -e '.[peer]' (or pip install jupedsim)", file=sys.stderr)
+        return 2
+    env = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+    runs = [(name, people) for name in args.scenes for people in (args.people if name == "hall" else [90])]
+    print(f"medians of {args.repeat} alternated rounds; femcrowd: macro, recommended settings; JuPedSim "
+          f"{_version()}: collision-free speed model, dt {DT} s, seed {args.seed}")
+    print("| scene | people | femcrowd wall (CPU) | JuPedSim wall (CPU) | femcrowd evacuation | JuPedSim evacuation "
+          "| femcrowd flow | JuPedSim flow | femcrowd steps (triangles) |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for name, people in runs:
+        scene(name, people)   # meshed once, before anything is timed
+        configs = [("femcrowd", None, "femcrowd"), ("JuPedSim", None, "jupedsim")]
+        result = rounds(configs, args.repeat,
+                        lambda code, tool: in_process(__file__, (tool, name, people, args.seed), code, env))
+        f, j = result["femcrowd"], result["JuPedSim"]
+        print(f"| {name} | {people} | {median(f, 'wall'):.1f} s ({median(f, 'cpu'):.1f}) | "
+              f"{median(j, 'wall'):.1f} s ({median(j, 'cpu'):.1f}) | "
+              f"{median(f, 'evacuation'):.1f} s | {median(j, 'evacuation'):.1f} s | {median(f, 'flow'):.2f} /s | "
+              f"{median(j, 'flow'):.2f} /s | {median(f, 'steps'):.0f} ({f[0]['cells']:.0f}) |", flush=True)
+    print(f"load average {os.getloadavg()[1]:.1f} (5 min) at the end")
+    return 0
+
+
+def _version() -> str:
+    from importlib.metadata import version
+
+    return version("jupedsim")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
