@@ -120,6 +120,7 @@ def run_jupedsim(plan_file: Path, box, people: int, seed: int) -> dict:
     """JuPedSim's collision-free speed model on the plan's outline, the agents taken out at its exits."""
     import jupedsim as jps
     import shapely
+
     from femcrowd.studies.validation import flow
 
     plan = tomllib.loads(Path(plan_file).read_text())
