@@ -112,23 +112,27 @@ def _segment(value):
 @click.option("--door-layers", default="exit,entrance", show_default=True, metavar="PREFIX[,PREFIX...]",
               help="DXF: layers whose names start with one of these hold named boundary segments (exits, "
                    "entrances), one group per layer.")
+@click.option("--doors-layer", default="doors", show_default=True, metavar="PREFIX",
+              help="DXF: layers whose names start with this hold interior doors (lines between rooms), one line "
+                   "group per layer, named after it.")
 @click.option("--exit", "exits", multiple=True, metavar="NAME=X0,Y0,X1,Y1",
               help="DXF and WKT plans: a named boundary segment on the outline (repeatable).")
 @click.option("--no-exits", is_flag=True, help="Mesh a plan that has no exit (otherwise an error).")
-def mesh(geometry, out, exit_size, size, units, wall_thickness, walls_layer, obstacles_layer, door_layers, exits,
-         no_exits):
+def mesh(geometry, out, exit_size, size, units, wall_thickness, walls_layer, obstacles_layer, door_layers, doors_layer,
+         exits, no_exits):
     """Mesh the floor plan GEOMETRY (.toml, .dxf or .wkt) with gmsh.
 
     A TOML floor plan gives the outer polygon, holes (polygons or circles),
     internal walls, named exit segments, named interior door lines and the
     cell size. A DXF drawing names them by layers: the outline and the
     internal walls on the walls layer, obstacles on theirs, exits and
-    entrances on layers named exit*, entrance*; its units are its $INSUNITS
-    or --units. A WKT file holds one POLYGON (JuPedSim's walkable area), its
-    exits given with --exit. A plan must have an exit (--no-exits otherwise)
-    and measure 1 m to 10 km across. The .msh has one boundary group per exit
-    and entrance name and "wall" for the rest, ready for a case (femcrowd
-    new). Drawing a plan: docs/plans.md.
+    entrances on layers named exit*, entrance*, interior doors on layers
+    named doors*; its units are its $INSUNITS or --units. A WKT file holds
+    one POLYGON (JuPedSim's walkable area), its exits given with --exit. A
+    plan must have an exit (--no-exits otherwise) and measure 1 m to 10 km
+    across. The .msh has one boundary group per exit and entrance name, one
+    line group per interior door name and "wall" for the rest, ready for a
+    case (femcrowd new). Drawing a plan: docs/plans.md.
 
     \b
     Examples:
@@ -140,7 +144,7 @@ def mesh(geometry, out, exit_size, size, units, wall_thickness, walls_layer, obs
     from ..mesh import load_domain
     from ..mesh.floorplan import build_mesh
 
-    cad = {"walls": walls_layer, "obstacles": obstacles_layer, "size": size, "units": units,
+    cad = {"walls": walls_layer, "obstacles": obstacles_layer, "interior": doors_layer, "size": size, "units": units,
            "wall_thickness": wall_thickness, "doors": [p.strip() for p in door_layers.split(",") if p.strip()],
            "exits": [_segment(e) for e in exits]}
     path = build_mesh(geometry, out, exit_size, cad=cad, require_exits=not no_exits)

@@ -10,7 +10,14 @@ A DXF drawing names its parts by layers (the names are options, case-insensitive
 - ``obstacles`` (default "obstacles"): circles, and closed loops as above;
 - exits and entrances: every layer whose name starts with one of the ``doors`` prefixes
   (default "exit" and "entrance") holds named boundary segments on the outline, lines or polylines;
-  the group is named after the layer ("exit_east"); a group named entrance* is an entrance.
+  the group is named after the layer ("exit_east"); a group named entrance* is an entrance;
+- interior doors: every layer whose name starts with the ``interior`` prefix (default "doors") holds
+  lines or polylines inside the plan (a door between two rooms), named after the layer as exits are
+  ("doors_ab"): the ``[[doors]]`` of a TOML plan, line groups of interior edges that take a capacity.
+
+An ARC on the walls layer that ends up among the internal walls (not in a closed loop: not a rounded corner
+of the outline or of an obstacle) is most likely a door swing drawn on the wrong layer; it is kept as a wall,
+which closes the doorway it spans, and a warning names it and where it ends.
 
 Lengths are converted to metres: the drawing's units are ``units`` if given, else its header's
 ``$INSUNITS`` (unitless or absent: metres; a code ezdxf cannot convert is refused). Layers of other names, and
@@ -34,7 +41,7 @@ from ..errors import InputError
 from .plan import PLAUSIBLE, PlanReader, check_plan, is_entrance
 
 log = logging.getLogger("femcrowd")
-DEFAULT_LAYERS = {"walls": "walls", "obstacles": "obstacles", "doors": ("exit", "entrance")}
+DEFAULT_LAYERS = {"walls": "walls", "obstacles": "obstacles", "doors": ("exit", "entrance"), "interior": "doors"}
 #: --units: the names of the DXF header's $INSUNITS codes (ezdxf.units) that a plan may be drawn in
 UNITS = {"mm": 4, "cm": 5, "dm": 14, "m": 6, "km": 7, "in": 1, "ft": 2, "yd": 10}
 KINDS = ("LINE", "LWPOLYLINE", "POLYLINE", "ARC", "CIRCLE")
@@ -75,13 +82,14 @@ def _short(value):
 
 
 def read_plan(file, walls=None, obstacles=None, doors=None, size=0.2, exits=(), units=None, wall_thickness=None,
-              require_exits=False):
+              require_exits=False, interior=None):
     """(size, loops, circles, exits, tol, doors) of a DXF or WKT floor plan, as plan.read_toml_plan returns them.
 
     exits: extra named segments ``[(name, (x0, y0), (x1, y1)), ...]`` (a WKT polygon has none of its own), in
     the plan's units; units: the drawing's length unit (a key of UNITS; None: the DXF's $INSUNITS, metres for
     WKT); wall_thickness: of the internal walls (m, default mesh/partitions.py); require_exits: a plan without
-    an exit is an error.
+    an exit is an error; walls, obstacles: the DXF's layers; doors: the prefixes of its exit and entrance
+    layers; interior: the prefix of its interior door layers.
     """
     file = pathlib.Path(file)
     if units is not None and units not in UNITS:
@@ -96,7 +104,7 @@ def read_plan(file, walls=None, obstacles=None, doors=None, size=0.2, exits=(), 
         hint = "give the exits with --exit NAME=X0,Y0,X1,Y1, or --no-exits for a plan nobody leaves"
     else:
         layers = {"walls": walls or DEFAULT_LAYERS["walls"], "obstacles": obstacles or DEFAULT_LAYERS["obstacles"],
-                  "doors": tuple(doors or DEFAULT_LAYERS["doors"])}
+                  "doors": tuple(doors or DEFAULT_LAYERS["doors"]), "interior": interior or DEFAULT_LAYERS["interior"]}
         data, origins, unit, names = _from_dxf(file, layers, size, units)
         exit_layers = [p for p in layers["doors"] if not is_entrance(p)] or ["exit"]
         hint = (f"no layer named {'*, '.join(exit_layers)}* holds a line (the drawing's layers: "
@@ -179,18 +187,22 @@ def _from_dxf(file, layers, size, units):
     unit = _unit(file, units, doc.header.get("$INSUNITS", 0))
     factor = unit[1]
     sagitta = size / 20 / factor   # arcs become chords no further than this (m) from the arc
-    pieces = {"walls": [], "obstacles": [], "doors": []}
-    circles, ignored, names = [], Counter(), set()
+    pieces = {"walls": [], "obstacles": [], "doors": [], "interior": []}
+    circles, ignored, names, arcs = [], Counter(), set(), set()
     for entity in doc.modelspace():
         layer = entity.dxf.layer
         names.add(layer)
         kind = next((k for k in ("walls", "obstacles") if layer.lower() == layers[k].lower()), None)
+        if kind is None and layer.lower().startswith(layers["interior"].lower()):
+            kind = "interior"
         if kind is None and layer.lower().startswith(tuple(p.lower() for p in layers["doors"])):
             kind = "doors"
         if kind is None or entity.dxftype() not in KINDS:
             ignored[layer, entity.dxftype()] += 1
             continue
         origin = f"layer {layer!r} {entity.dxftype()} #{entity.dxf.handle}"
+        if entity.dxftype() == "ARC" and kind == "walls":
+            arcs.add(origin)
         if entity.dxftype() == "CIRCLE" and kind == "obstacles":
             circles.append(({"circle": {"center": (factor * np.array(entity.dxf.center)[:2]).tolist(),
                                         "radius": factor * entity.dxf.radius}}, origin))
@@ -200,8 +212,8 @@ def _from_dxf(file, layers, size, units):
                                                                                               False)
         pieces[kind].append((points, bool(closed), layer.lower(), origin))
     if ignored:
-        log.warning("%s: ignored (not on the layers %s, %s, %s*, or not %s): %s", file, layers["walls"],
-                    layers["obstacles"], "*, ".join(layers["doors"]), ", ".join(KINDS),
+        log.warning("%s: ignored (not on the layers %s, %s, %s*, %s*, or not %s): %s", file, layers["walls"],
+                    layers["obstacles"], "*, ".join(layers["doors"]), layers["interior"], ", ".join(KINDS),
                     "; ".join(f"layer {layer!r}: {n} {kind}" for (layer, kind), n in sorted(ignored.items())))
     span = np.ptp(np.concatenate([p for p, *_ in pieces["walls"]]), axis=0).max() if pieces["walls"] else 1.0
     tol = 1e-6 * span
@@ -217,12 +229,13 @@ def _from_dxf(file, layers, size, units):
         raise InputError(file, None, None, f"no outline: the walls layer {layers['walls']!r} {found}; the drawing's "
                          f"layers: {', '.join(sorted(names, key=str.lower)) or 'none'}; give the outline's layer "
                          "with --walls-layer")
+    _warn_swings(file, [p for p in partitions if p[3] in arcs])
     areas = [abs(_signed_area(p)) for p, _ in wall_loops]
     outer = int(np.argmax(areas))
     holes = [loop for k, loop in enumerate(wall_loops) if k != outer] + _loops(file, pieces["obstacles"], tol)
     data = {"outer": {"points": wall_loops[outer][0].tolist()},
             "holes": [{"points": p.tolist()} for p, _ in holes] + [c for c, _ in circles], "exits": [],
-            "walls": [{"points": p.tolist()} for p, *_ in partitions]}
+            "walls": [{"points": p.tolist()} for p, *_ in partitions], "doors": []}
     origins = {"outer": wall_loops[outer][1]}
     origins.update({f"holes[{k}]": origin for k, (_, origin) in enumerate(holes + [(None, o) for _, o in circles])})
     origins.update({f"walls[{k}]": origin for k, (*_, origin) in enumerate(partitions)})
@@ -230,7 +243,22 @@ def _from_dxf(file, layers, size, units):
         for a, b in zip(points[:-1], points[1:]):
             origins[f"exits[{len(data['exits'])}]"] = origin
             data["exits"].append({"name": layer, "from": a.tolist(), "to": b.tolist()})
+    for points, _, layer, origin in pieces["interior"]:
+        for a, b in zip(points[:-1], points[1:]):
+            origins[f"doors[{len(data['doors'])}]"] = origin
+            data["doors"].append({"name": layer, "from": a.tolist(), "to": b.tolist()})
     return data, origins, unit, sorted(names, key=str.lower)
+
+
+def _warn_swings(file, arcs):
+    """One warning naming the arcs among the internal walls and their ends (m): door swings drawn on the walls
+    layer, each closing the doorway it spans."""
+    if arcs:
+        where = "; ".join(f"{origin} from ({p[0][0]:.3g}, {p[0][1]:.3g}) to ({p[-1][0]:.3g}, {p[-1][1]:.3g}) m"
+                          for p, *_, origin in arcs)
+        log.warning("%s: an arc on the walls layer is a wall: if it is a door swing, it closes the doorway it "
+                    "spans (move it to another layer; a door between rooms is a line on the doors layer): %s",
+                    file, where)
 
 
 def _partitions(file, pieces, tol):

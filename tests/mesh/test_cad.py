@@ -290,3 +290,97 @@ def test_an_outline_on_another_layer_lists_the_layers(tmp_path):
     one_line_error(mesh(plan), "plan.dxf: no outline: the walls layer 'walls' holds no LINE",
                    "layers: A-WALL, entrance, exit, notes", "--walls-layer")
     assert mesh(plan, "--walls-layer", "A-WALL").exit_code == 0
+
+
+def two_rooms(path, door_layer="doors_AB", swing=False, top=8000):
+    """Two 10 x 8 m rooms drawn in millimetres, side by side: the outline a closed polyline on "walls", the
+    partition at x = 10 m as two LINEs from y = 0 and up to y = `top` (mm) leaving a 1.2 m doorway (y in [3.4,
+    4.6] m), a LINE across the doorway on `door_layer` (None: none), an exit of 1.2 m at x = 20 m; with `swing`,
+    a door swing on "walls": the leaf from the hinge (10, 3.4) to (8.8, 3.4) and an ARC of radius 1.2 m around
+    the hinge from the doorway's other end to the leaf."""
+    doc = ezdxf.new()
+    doc.header["$INSUNITS"] = 4
+    msp = doc.modelspace()
+    walls = {"layer": "walls"}
+    msp.add_lwpolyline([(0, 0), (20000, 0), (20000, 8000), (0, 8000)], close=True, dxfattribs=walls)
+    msp.add_line((10000, 0), (10000, 3400), dxfattribs=walls)
+    msp.add_line((10000, 4600), (10000, top), dxfattribs=walls)
+    if door_layer:
+        msp.add_line((10000, 3400), (10000, 4600), dxfattribs={"layer": door_layer})
+    msp.add_line((20000, 3400), (20000, 4600), dxfattribs={"layer": "exit"})
+    if swing:
+        msp.add_line((10000, 3400), (8800, 3400), dxfattribs=walls)
+        msp.add_arc((10000, 3400), 1200, 90, 180, dxfattribs=walls)   # (10, 4.6) -> (8.8, 3.4) m
+    doc.saveas(path)
+    return path
+
+
+def test_a_doors_layer_makes_an_interior_door_that_takes_a_capacity(tmp_path):
+    """The two rooms in millimetres, the doorway's line on the layer doors_AB: a line group doors_ab of 1.2 m of
+    interior edges on x = 10 (nothing else interior is named); a case with a capacity of 0.5 on it and the left
+    room full runs with the total mass conserved (mass + evacuated), 0 <= rho <= 1, p >= 0, and the door's flow
+    at most 0.5 x 1.2 persons per second and at exactly that while the queue lasts."""
+    result = mesh(two_rooms(tmp_path / "plan.dxf"), "--size", "0.5")
+    assert result.exit_code == 0 and result.stderr == "", result.output
+    domain = load_domain(tmp_path / "plan.msh", ["exit"])
+    door = domain.groups["doors_ab"]
+    mid = domain.points[domain.mesh.facets[:, door]].mean(axis=0)
+    assert np.all(domain.interior[door]) and np.allclose(mid[:, 0], 10.0)
+    assert domain.length[door].sum() == pytest.approx(1.2, rel=1e-12)
+    (tmp_path / "case.toml").write_text(
+        '[mesh]\nfile = "plan.msh"\n[boundary]\nexits = ["exit"]\ncapacity = { doors_ab = 0.5 }\n'
+        '[initial]\ndensity = "1.0 * (x < 9)"\n[time]\nend = 3.0\n')
+    run = Simulation(load_case(tmp_path)).run()
+    h = run.history
+    assert run.summary["status"] == "completed" and len(h["time"]) > 3
+    mass0 = h["mass"][0]
+    assert np.abs(h["mass"] + h["evacuated"] - mass0).max() <= 1e-10 * mass0
+    assert h["min_density"].min() >= -1e-12 and h["max_density"].max() <= 1 + 1e-9 and h["min_pressure"].min() >= 0
+    assert h["flow_doors_ab"].max() <= 0.5 * 1.2 * (1 + 1e-12)
+    assert h["flow_doors_ab"][-1] == pytest.approx(0.6, rel=1e-12)
+
+
+def test_a_door_swing_on_the_walls_layer_is_named_where_it_closes_the_doorway(tmp_path):
+    """The doorway's swing (a leaf LINE and an ARC) drawn on "walls": one warning naming the ARC and its ends in
+    metres, (10, 4.6) and (8.8, 3.4); with no other way between the rooms the plan is then refused (cut into 2
+    parts); with a second doorway at the top of the partition it meshes, the warning still there. The rounded
+    corner of an outline (an ARC in the closed loop) warns of nothing (test_a_clean_drawing_warns_of_nothing's
+    office has none; `drawing` has one)."""
+    def swing_warnings(result):
+        return [line for line in result.stderr.splitlines() if "door swing" in line]
+
+    closed = mesh(two_rooms(tmp_path / "closed.dxf", None, swing=True))
+    one_line_error(closed, "closed.dxf", "cut the plan into 2 parts")
+    meshed = mesh(two_rooms(tmp_path / "open.dxf", None, swing=True, top=7000))
+    assert meshed.exit_code == 0, meshed.output
+    for result, name in ((closed, "closed.dxf"), (meshed, "open.dxf")):
+        (line,) = swing_warnings(result)
+        assert name in line and "layer 'walls' ARC #" in line and "from (10, 4.6) to (8.8, 3.4) m" in line, line
+    assert not swing_warnings(mesh(two_rooms(tmp_path / "plain.dxf", None, top=7000)))
+    rounded = mesh(drawing(tmp_path / "rounded.dxf", "lines and an arc"))
+    assert rounded.exit_code == 0 and not swing_warnings(rounded), rounded.output
+
+
+@pytest.mark.parametrize("layer, options, group", [("doors", (), "doors"), ("door_AB", ("--doors-layer", "door"),
+                                                                            "door_ab")])
+def test_interior_doors_are_named_after_their_layer(tmp_path, layer, options, group):
+    """The exits' rule: the layer `doors` makes the group doors; with --doors-layer door, the layer door_AB makes
+    door_ab (the name of issue 36), not an ignored layer; the group is the 1.2 m of the doorway."""
+    result = mesh(two_rooms(tmp_path / "plan.dxf", layer), *options)
+    assert result.exit_code == 0 and result.stderr == "", result.output
+    domain = load_domain(tmp_path / "plan.msh", ["exit"])
+    assert set(domain.groups) == {"wall", "exit", group}
+    assert domain.length[domain.groups[group]].sum() == pytest.approx(1.2, rel=1e-12)
+
+
+def test_a_door_line_outside_the_plan_or_named_as_an_exit_is_refused(tmp_path):
+    """A line on the doors layer along the outline (not inside), or a door named like an exit (given with --exit):
+    one line naming the layer and the entity, no mesh."""
+    plan = two_rooms(tmp_path / "plan.dxf")
+    doc = ezdxf.readfile(plan)
+    doc.modelspace().add_line((0, 1000), (0, 2000), dxfattribs={"layer": "doors_west"})
+    doc.saveas(plan)
+    one_line_error(mesh(plan), "plan.dxf: layer 'doors_west' LINE #", "the door must lie inside the domain")
+    one_line_error(mesh(two_rooms(tmp_path / "named.dxf"), "--exit", "doors_ab=20000,1000,20000,2000"),
+                   "layer 'doors_AB' LINE #", "other than wall, domain and the exits'")
+    assert not list(tmp_path.glob("*.msh"))
