@@ -239,14 +239,11 @@ def _from_dxf(file, layers, size, units):
     origins = {"outer": wall_loops[outer][1]}
     origins.update({f"holes[{k}]": origin for k, (_, origin) in enumerate(holes + [(None, o) for _, o in circles])})
     origins.update({f"walls[{k}]": origin for k, (*_, origin) in enumerate(partitions)})
-    for points, _, layer, origin in pieces["doors"]:
-        for a, b in zip(points[:-1], points[1:]):
-            origins[f"exits[{len(data['exits'])}]"] = origin
-            data["exits"].append({"name": layer, "from": a.tolist(), "to": b.tolist()})
-    for points, _, layer, origin in pieces["interior"]:
-        for a, b in zip(points[:-1], points[1:]):
-            origins[f"doors[{len(data['doors'])}]"] = origin
-            data["doors"].append({"name": layer, "from": a.tolist(), "to": b.tolist()})
+    for kind, table in (("doors", "exits"), ("interior", "doors")):   # each segment a named [[exits]], [[doors]]
+        for points, _, layer, origin in pieces[kind]:
+            for a, b in zip(points[:-1], points[1:]):
+                origins[f"{table}[{len(data[table])}]"] = origin
+                data[table].append({"name": layer, "from": a.tolist(), "to": b.tolist()})
     return data, origins, unit, sorted(names, key=str.lower)
 
 
@@ -254,7 +251,7 @@ def _warn_swings(file, arcs):
     """One warning naming the arcs among the internal walls and their ends (m): door swings drawn on the walls
     layer, each closing the doorway it spans."""
     if arcs:
-        where = "; ".join(f"{origin} from ({p[0][0]:.3g}, {p[0][1]:.3g}) to ({p[-1][0]:.3g}, {p[-1][1]:.3g}) m"
+        where = "; ".join(f"{origin} from ({p[0][0]:g}, {p[0][1]:g}) to ({p[-1][0]:g}, {p[-1][1]:g}) m"
                           for p, *_, origin in arcs)
         log.warning("%s: an arc on the walls layer is a wall: if it is a door swing, it closes the doorway it "
                     "spans (move it to another layer; a door between rooms is a line on the doors layer): %s",
