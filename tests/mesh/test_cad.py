@@ -318,8 +318,9 @@ def two_rooms(path, door_layer="doors_AB", swing=False, top=8000):
 def test_a_doors_layer_makes_an_interior_door_that_takes_a_capacity(tmp_path):
     """The two rooms in millimetres, the doorway's line on the layer doors_AB: a line group doors_ab of 1.2 m of
     interior edges on x = 10 (nothing else interior is named); a case with a capacity of 0.5 on it and the left
-    room full runs with the total mass conserved (mass + evacuated), 0 <= rho <= 1, p >= 0, and the door's flow
-    at most 0.5 x 1.2 persons per second and at exactly that while the queue lasts."""
+    room full runs with the total mass conserved (mass + evacuated), 0 <= rho <= 1, p >= 0, the door's flow at
+    most 0.5 x 1.2 persons per second and at exactly that while the queue lasts; a counting line drawn on the door
+    counts exactly the door's flow summed over the steps."""
     result = mesh(two_rooms(tmp_path / "plan.dxf"), "--size", "0.5")
     assert result.exit_code == 0 and result.stderr == "", result.output
     domain = load_domain(tmp_path / "plan.msh", ["exit"])
@@ -329,7 +330,8 @@ def test_a_doors_layer_makes_an_interior_door_that_takes_a_capacity(tmp_path):
     assert domain.length[door].sum() == pytest.approx(1.2, rel=1e-12)
     (tmp_path / "case.toml").write_text(
         '[mesh]\nfile = "plan.msh"\n[boundary]\nexits = ["exit"]\ncapacity = { doors_ab = 0.5 }\n'
-        '[initial]\ndensity = "1.0 * (x < 9)"\n[time]\nend = 3.0\n')
+        '[initial]\ndensity = "1.0 * (x < 9)"\n[time]\nend = 3.0\n'
+        '[[measure.lines]]\nname = "ab"\nfrom = [10, 3.4]\nto = [10, 4.6]\n')
     run = Simulation(load_case(tmp_path)).run()
     h = run.history
     assert run.summary["status"] == "completed" and len(h["time"]) > 3
@@ -338,6 +340,8 @@ def test_a_doors_layer_makes_an_interior_door_that_takes_a_capacity(tmp_path):
     assert h["min_density"].min() >= -1e-12 and h["max_density"].max() <= 1 + 1e-9 and h["min_pressure"].min() >= 0
     assert h["flow_doors_ab"].max() <= 0.5 * 1.2 * (1 + 1e-12)
     assert h["flow_doors_ab"][-1] == pytest.approx(0.6, rel=1e-12)
+    passed = np.sum(h["flow_doors_ab"][1:] * np.diff(h["time"]))
+    assert run.measurements["ab_count"][-1] == pytest.approx(passed, rel=1e-12) and 1.0 < passed <= 0.6 * 3.0
 
 
 def test_a_door_swing_on_the_walls_layer_is_named_where_it_closes_the_doorway(tmp_path):
