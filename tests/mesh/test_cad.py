@@ -366,14 +366,16 @@ def test_a_door_swing_on_the_walls_layer_is_named_where_it_closes_the_doorway(tm
 
 
 @pytest.mark.parametrize("layer, options, group", [("doors", (), "doors"), ("door_AB", ("--doors-layer", "door"),
-                                                                            "door_ab")])
+                                                                            "door_ab"),
+                                                   ("doors", ("--door-layers", "exit,doors"), "doors")])
 def test_interior_doors_are_named_after_their_layer(tmp_path, layer, options, group):
     """The exits' rule: the layer `doors` makes the group doors; with --doors-layer door, the layer door_AB makes
-    door_ab (the name of issue 36), not an ignored layer; the group is the 1.2 m of the doorway."""
+    door_ab (the name of issue 36), not an ignored layer; a layer that is also an exit prefix holds interior
+    doors; the group is the 1.2 m of the doorway, all interior edges."""
     result = mesh(two_rooms(tmp_path / "plan.dxf", layer), *options)
     assert result.exit_code == 0 and result.stderr == "", result.output
     domain = load_domain(tmp_path / "plan.msh", ["exit"])
-    assert set(domain.groups) == {"wall", "exit", group}
+    assert set(domain.groups) == {"wall", "exit", group} and np.all(domain.interior[domain.groups[group]])
     assert domain.length[domain.groups[group]].sum() == pytest.approx(1.2, rel=1e-12)
 
 
