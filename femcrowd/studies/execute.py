@@ -9,6 +9,8 @@ import tempfile
 import threading
 from contextlib import contextmanager
 
+from tqdm import tqdm
+
 from ..errors import InputError
 from ..linalg.threads import thread_limit
 
@@ -22,7 +24,7 @@ class StudyInterrupted(KeyboardInterrupt):
 
 
 def execute(function, tasks: list, serial: bool = False, scheduler: str | None = None, echo=None,
-            keep_going: bool = False) -> list:
+            keep_going: bool = False, quiet: bool = True) -> list:
     """function(task) for every task, results in task order; through dask unless serial.
 
     Bigger runs are submitted with higher priority so that the longest one starts first.
@@ -30,23 +32,62 @@ def execute(function, tasks: list, serial: bool = False, scheduler: str | None =
     raises any error gives the result ``{"failed": one-line reason}`` and the others go on. Each task runs
     with one BLAS/OpenMP thread, in a dask worker as in this process: the workers share the
     cores, and run times measured either way are the same kind of number. Ctrl-C stops the
-    runs under way and raises StudyInterrupted with the results of those that finished.
+    runs under way and raises StudyInterrupted with the results of those that finished. Unless quiet, a
+    :class:`Progress` bar counts the runs on stderr.
     """
     function = _catching(function, keep_going)
     results = [None] * len(tasks)
-    try:
-        if serial:
-            for i, task in enumerate(tasks):
-                results[i] = _unwrap(function(task), keep_going)
-                _echo(echo, task, results[i])
-        else:
-            _distributed(function, tasks, scheduler, results, echo, keep_going)
-    except KeyboardInterrupt:
-        raise StudyInterrupted(results) from None
+    with Progress(len(tasks), echo, quiet) as progress:
+        try:
+            if serial:
+                for i, task in enumerate(tasks):
+                    results[i] = _unwrap(function(task), keep_going)
+                    _echo(progress, task, results[i])
+            else:
+                _distributed(function, tasks, scheduler, results, progress, keep_going)
+        except KeyboardInterrupt:
+            raise StudyInterrupted(results) from None
     return results
 
 
-def _distributed(function, tasks, scheduler, results, echo, keep_going):
+class Progress:
+    """The progress of a study on stderr, drawn as a run's bar is (tqdm, from 2 s on, none when quiet): the runs
+    done of the total, those failed, the time left (the mean time per run so far, over the runs still to do).
+
+    ``echo(line)`` prints a line of the study under the bar (cleared, then drawn again below the line);
+    ``advance(failed)`` counts one run more."""
+
+    def __init__(self, total: int, echo=None, quiet: bool = True):
+        self.bar = tqdm(total=total, disable=quiet, delay=2.0, unit="run", desc="study",
+                        bar_format="{l_bar}{bar}| {n}/{total} runs{postfix} [{elapsed}<{remaining}]")
+        self.print = echo
+        self.failed = 0
+
+    def echo(self, line: str) -> None:
+        if self.print is None:
+            return
+        # a bar not yet drawn (the first 2 s) is left alone: clear() and refresh() would draw it
+        drawn = not self.bar.disable and self.bar.last_print_t >= self.bar.start_t + self.bar.delay
+        if drawn:
+            self.bar.clear()
+        self.print(line)
+        if drawn:
+            self.bar.refresh()
+
+    def advance(self, failed: bool = False) -> None:
+        if failed:
+            self.failed += 1
+            self.bar.set_postfix_str(f"{self.failed} failed", refresh=False)
+        self.bar.update()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.bar.close()
+
+
+def _distributed(function, tasks, scheduler, results, progress, keep_going):
     """Fill results[i] = function(tasks[i]) through dask, in the order the runs finish."""
     import dask
     from dask.distributed import Client, LocalCluster, as_completed
@@ -83,7 +124,7 @@ def _distributed(function, tasks, scheduler, results, echo, keep_going):
                     raise
                 result = failure(err)
             results[i] = _unwrap(result, keep_going)
-            _echo(echo, tasks[i], results[i])
+            _echo(progress, tasks[i], results[i])
     except KeyboardInterrupt:
         if cluster is not None:   # the runs under way are dropped: stop their workers now (not after 4 s)
             cluster.sync(_stop_workers, list(cluster.workers.values()))
@@ -138,13 +179,13 @@ def describe(task) -> str:
     return task.series if task.out else f"{task.series}, level {task.level} ({task.mesh})"
 
 
-def _echo(echo, task, result):
-    if echo is None:
-        return
+def _echo(progress, task, result):
+    """One run more on the bar, and the line of this one."""
+    progress.advance("failed" in result)
     if "failed" in result:
-        echo(f"  failed: {describe(task)}: {result['failed']}")
+        progress.echo(f"  failed: {describe(task)}: {result['failed']}")
     else:
-        echo(f"  done: {describe(task)}: {result.get('wall_seconds', result.get('wall', 0.0)):.2f} s")
+        progress.echo(f"  done: {describe(task)}: {result.get('wall_seconds', result.get('wall', 0.0)):.2f} s")
 
 
 def failure(err: Exception) -> dict:
