@@ -130,7 +130,8 @@ def sweep(case_dir, set_values, overrides, out, serial, scheduler, force, quiet)
 @click.option("--cases", type=click.Path(), help="Directory of scene case directories (default: cases/stress).")
 @force_option
 @click.option("--checks", is_flag=True, help="Print every check of every scene under its row.")
-def stress(out, only, cases, force, checks):
+@quiet_option
+def stress(out, only, cases, force, checks, quiet):
     """Run the stiff and extreme scenes of cases/stress and check every invariant.
 
     Each scene is a normal case run through the controller (femcrowd run); its
@@ -154,7 +155,7 @@ def stress(out, only, cases, force, checks):
 
     st.scenes(cases or st.CASES, only)  # a bad --only is one line, before the table starts
     click.echo(st.header())
-    results, root = st.run_matrix(out, only, cases, force, echo)
+    results, root = st.run_matrix(out, only, cases, force, echo, quiet)
     for r in results:
         for c in r.failures():
             click.echo(f"FAIL {r.name}: {c.what}: {c.detail}")
@@ -182,7 +183,8 @@ def stress(out, only, cases, force, checks):
                    "each of its figures as the median (min-max) over the seeds, its verdict as pass k/N, fail k/N (the "
                    "discs' sampling, their fluctuation and which arch holds at a door vary with the seed); the macro "
                    "variants, deterministic, run once. Default: one run with the case's seed.")
-def rimea(out, only, models, seeds):
+@quiet_option
+def rimea(out, only, models, seeds, quiet):
     """Run the RiMEA verification tests of cases/rimea with both models and print the table.
 
     Tests 1 (corridor), 4 (fundamental diagram), 6 (corner), 9 (four doors,
@@ -206,7 +208,7 @@ def rimea(out, only, models, seeds):
         rm.select(only)
     except ValueError as err:
         raise click.BadParameter(str(err), param_hint="--only") from None
-    rows = rm.run_all(only, models or rm.MODELS, out=out, echo=click.echo, seeds=seeds)
+    rows = rm.run_all(only, models or rm.MODELS, out=out, echo=click.echo, seeds=seeds, quiet=quiet)
     table = rm.table_markdown(rows)
     write_text(make_directory(out) / "rimea.md", table, sync=True)
     click.echo("\n" + table)

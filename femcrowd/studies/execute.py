@@ -52,18 +52,18 @@ def execute(function, tasks: list, serial: bool = False, scheduler: str | None =
 
 class Progress:
     """The progress of a study on stderr, drawn as a run's bar is (tqdm, from 2 s on, none when quiet): the runs
-    done of the total, those failed, the time left (the mean time per run so far, over the runs still to do).
+    done of the total, those failed, the time left (tqdm's, from the pace of the runs so far).
 
-    ``echo(line)`` prints a line of the study under the bar (cleared, then drawn again below the line);
-    ``advance(failed)`` counts one run more."""
+    ``echo(line)`` prints what the study prints of a run (a line; stress: a scene's result, through its own echo)
+    above the bar, cleared and then drawn again below it; ``advance(failed)`` counts one run more."""
 
     def __init__(self, total: int, echo=None, quiet: bool = True):
-        self.bar = tqdm(total=total, disable=quiet, delay=2.0, unit="run", desc="study",
+        self.bar = tqdm(total=total, disable=quiet, delay=2.0, desc="study",
                         bar_format="{l_bar}{bar}| {n}/{total} runs{postfix} [{elapsed}<{remaining}]")
         self.print = echo
         self.failed = 0
 
-    def echo(self, line: str) -> None:
+    def echo(self, line) -> None:
         if self.print is None:
             return
         # a bar not yet drawn (the first 2 s) is left alone: clear() and refresh() would draw it
