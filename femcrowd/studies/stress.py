@@ -28,8 +28,8 @@ from ..driver import run
 from ..driver.output import prepare_output_dir
 from ..errors import InputError
 from ..files import replaced, write_text
-from .execute import Progress
 from ..timer import Stopwatch
+from .execute import Progress
 from .stress_checks import CHECKS, LINEAR_TOL, MASS_TOL, RHO_TOL, Check, Output, population_invariants
 
 #: the scenes (shipped with femcrowd)
