@@ -55,7 +55,8 @@ class Progress:
     done of the total, those failed, the time left (tqdm's, from the pace of the runs so far).
 
     ``echo(line)`` prints what the study prints of a run (a line; stress: a scene's result, through its own echo)
-    above the bar, cleared and then drawn again below it; ``advance(failed)`` counts one run more."""
+    above the bar, cleared and then drawn again below it; ``advance(failed)`` counts one run more. While the
+    bar is on, femcrowd's log lines (the warnings of the runs) are printed above it the same way."""
 
     def __init__(self, total: int, echo=None, quiet: bool = True):
         self.bar = tqdm(total=total, disable=quiet, delay=2.0, desc="study",
@@ -63,16 +64,23 @@ class Progress:
         self.print = echo
         self.failed = 0
 
-    def echo(self, line) -> None:
-        if self.print is None:
-            return
-        # a bar not yet drawn (the first 2 s) is left alone: clear() and refresh() would draw it
+    @contextmanager
+    def above(self):
+        """What is printed in this context goes above the bar. A bar not yet drawn (the first 2 s) is left
+        alone: clear() and refresh() would draw it."""
         drawn = not self.bar.disable and self.bar.last_print_t >= self.bar.start_t + self.bar.delay
         if drawn:
             self.bar.clear()
-        self.print(line)
-        if drawn:
-            self.bar.refresh()
+        try:
+            yield
+        finally:
+            if drawn:
+                self.bar.refresh()
+
+    def echo(self, line) -> None:
+        if self.print is not None:
+            with self.above():
+                self.print(line)
 
     def advance(self, failed: bool = False) -> None:
         if failed:
@@ -81,10 +89,29 @@ class Progress:
         self.bar.update()
 
     def __enter__(self):
+        self.log = logging.getLogger("femcrowd")
+        self.handlers = self.log.handlers[:]
+        if not self.bar.disable:
+            self.log.handlers[:] = [_Above(self, self.handlers)]
         return self
 
     def __exit__(self, *exc):
+        self.log.handlers[:] = self.handlers
         self.bar.close()
+
+
+class _Above(logging.Handler):
+    """The log's own handlers, their lines printed above a study's bar."""
+
+    def __init__(self, progress, handlers):
+        super().__init__()
+        self.progress, self.handlers = progress, handlers
+
+    def emit(self, record):
+        with self.progress.above():
+            for handler in self.handlers:
+                if record.levelno >= handler.level:
+                    handler.handle(record)
 
 
 def _distributed(function, tasks, scheduler, results, progress, keep_going):

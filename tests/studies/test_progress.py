@@ -2,6 +2,7 @@
 as a run's bar, the study's lines printed above it."""
 
 import io
+import logging
 import re
 import shutil
 
@@ -74,3 +75,18 @@ def test_rimea_counts_every_run_of_its_seeds(tmp_path, screen):
     rimea.run_all(("10",), ("micro-recommended",), out=tmp_path, seeds=2, quiet=False,
                   echo=lambda row: screen.write(row + "\n"))
     assert shown(screen, 2) == [(0, 0), (1, 0), (2, 0), "10 alloca", (2, 0), (2, 0)]
+
+
+def test_log_lines_go_above_the_bar_and_the_handlers_come_back(screen, monkeypatch):
+    """A warning of a run while the bar is on: the bar cleared, the line, the bar again (it used to be glued to the
+    bar's line); femcrowd's own handlers back after the study."""
+    log = logging.getLogger("femcrowd")
+    handler = logging.StreamHandler(screen)
+    monkeypatch.setattr(log, "handlers", [handler])
+    with execute.Progress(2, quiet=False) as progress:
+        progress.advance()
+        log.warning("a warning of the second run")
+        progress.advance()
+    assert log.handlers == [handler]
+    assert shown(screen, 2) == [(0, 0), (1, 0), "a warning", (1, 0), (2, 0), (2, 0)]
+    assert re.search(r"\r *\ra warning of the second run\n\r?study", screen.getvalue()), screen.getvalue()
