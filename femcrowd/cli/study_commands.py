@@ -8,7 +8,7 @@ import click
 from ..errors import InputError
 from ..files import make_directory, write_text
 from ..timer import Stopwatch
-from .main import force_option, main, scheduler_option, serial_option, set_option, study_out_option
+from .main import force_option, main, quiet_option, scheduler_option, serial_option, set_option, study_out_option
 
 
 def _floats(option):
@@ -38,7 +38,8 @@ def _floats(option):
 @serial_option
 @scheduler_option
 @force_option
-def convergence(case_dir, levels, cfl, set_values, times, overrides, out, serial, scheduler, force):
+@quiet_option
+def convergence(case_dir, levels, cfl, set_values, times, overrides, out, serial, scheduler, force, quiet):
     """Mesh-convergence study of a case: errors against h and against run time.
 
     Errors are measured against the case's [exact] solution, otherwise against
@@ -54,7 +55,7 @@ def convergence(case_dir, levels, cfl, set_values, times, overrides, out, serial
     from ..studies.convergence import study
 
     rows, text, out_dir = study(case_dir, levels, out, overrides, cfl, set_values, times, serial,
-                                scheduler, force, echo=click.echo)
+                                scheduler, force, echo=click.echo, quiet=quiet)
     click.echo(text)
     click.echo(f"report: {out_dir}/convergence.md, convergence.csv, error_vs_h.png, error_vs_time.png")
 
@@ -72,7 +73,8 @@ def convergence(case_dir, levels, cfl, set_values, times, overrides, out, serial
 @serial_option
 @scheduler_option
 @force_option
-def evacuation_times(case_dir, levels, cfl, set_values, overrides, out, serial, scheduler, force):
+@quiet_option
+def evacuation_times(case_dir, levels, cfl, set_values, overrides, out, serial, scheduler, force, quiet):
     """Evacuation times of a macro case under mesh refinement: when 50, 90, 99 % and all but
     time.empty_fraction of the crowd are out, on each level, with the change between levels, the observed
     order and Richardson's estimate of the converged time.
@@ -87,7 +89,7 @@ def evacuation_times(case_dir, levels, cfl, set_values, overrides, out, serial, 
     from ..studies.evacuation import study
 
     rows, text, out_dir = study(case_dir, levels, out, overrides, cfl, set_values, serial, scheduler, force,
-                                echo=click.echo)
+                                echo=click.echo, quiet=quiet)
     click.echo(text)
     click.echo(f"report: {out_dir}/evacuation.md, evacuation.csv")
 
@@ -101,7 +103,8 @@ def evacuation_times(case_dir, levels, cfl, set_values, overrides, out, serial, 
 @serial_option
 @scheduler_option
 @force_option
-def sweep(case_dir, set_values, overrides, out, serial, scheduler, force):
+@quiet_option
+def sweep(case_dir, set_values, overrides, out, serial, scheduler, force, quiet):
     """Run a case for every combination of parameter values (in parallel through dask).
 
     Each run writes its own output directory (frames, history.csv, summary.json);
@@ -113,7 +116,8 @@ def sweep(case_dir, set_values, overrides, out, serial, scheduler, force):
     """
     from ..studies.sweep import sweep as run_sweep
 
-    rows, text, root = run_sweep(case_dir, set_values, out, overrides, serial, scheduler, force, echo=click.echo)
+    rows, text, root = run_sweep(case_dir, set_values, out, overrides, serial, scheduler, force, echo=click.echo,
+                                 quiet=quiet)
     click.echo(text)
     click.echo(f"runs and sweep.csv in {root}")
 
@@ -126,7 +130,8 @@ def sweep(case_dir, set_values, overrides, out, serial, scheduler, force):
 @click.option("--cases", type=click.Path(), help="Directory of scene case directories (default: cases/stress).")
 @force_option
 @click.option("--checks", is_flag=True, help="Print every check of every scene under its row.")
-def stress(out, only, cases, force, checks):
+@quiet_option
+def stress(out, only, cases, force, checks, quiet):
     """Run the stiff and extreme scenes of cases/stress and check every invariant.
 
     Each scene is a normal case run through the controller (femcrowd run); its
@@ -150,7 +155,7 @@ def stress(out, only, cases, force, checks):
 
     st.scenes(cases or st.CASES, only)  # a bad --only is one line, before the table starts
     click.echo(st.header())
-    results, root = st.run_matrix(out, only, cases, force, echo)
+    results, root = st.run_matrix(out, only, cases, force, echo, quiet)
     for r in results:
         for c in r.failures():
             click.echo(f"FAIL {r.name}: {c.what}: {c.detail}")
@@ -178,7 +183,8 @@ def stress(out, only, cases, force, checks):
                    "each of its figures as the median (min-max) over the seeds, its verdict as pass k/N, fail k/N (the "
                    "discs' sampling, their fluctuation and which arch holds at a door vary with the seed); the macro "
                    "variants, deterministic, run once. Default: one run with the case's seed.")
-def rimea(out, only, models, seeds):
+@quiet_option
+def rimea(out, only, models, seeds, quiet):
     """Run the RiMEA verification tests of cases/rimea with both models and print the table.
 
     Tests 1 (corridor), 4 (fundamental diagram), 6 (corner), 9 (four doors,
@@ -202,7 +208,7 @@ def rimea(out, only, models, seeds):
         rm.select(only)
     except ValueError as err:
         raise click.BadParameter(str(err), param_hint="--only") from None
-    rows = rm.run_all(only, models or rm.MODELS, out=out, echo=click.echo, seeds=seeds)
+    rows = rm.run_all(only, models or rm.MODELS, out=out, echo=click.echo, seeds=seeds, quiet=quiet)
     table = rm.table_markdown(rows)
     write_text(make_directory(out) / "rimea.md", table, sync=True)
     click.echo("\n" + table)
@@ -228,7 +234,8 @@ def rimea(out, only, models, seeds):
 @serial_option
 @scheduler_option
 @force_option
-def validate(out, settings, widths, levels, seeds, overrides, serial, scheduler, force):
+@quiet_option
+def validate(out, settings, widths, levels, seeds, overrides, serial, scheduler, force, quiet):
     """Flow through a bottleneck against its width, each model beside the experiments.
 
     A crowd of 90 waits in front of a corridor 2 m long and 0.5 ... 2.4 m
@@ -254,7 +261,7 @@ def validate(out, settings, widths, levels, seeds, overrides, serial, scheduler,
     clock = Stopwatch()
     chosen = tuple(s.strip() for s in settings.split(",")) if settings else tuple(va.SETTINGS)
     table, text, root = va.validate(out, chosen, widths or va.WIDTHS, levels, seeds, overrides, serial, scheduler,
-                                    force, echo=click.echo)
+                                    force, echo=click.echo, quiet=quiet)
     click.echo("\n" + text)
     click.echo(f"{len(table)} rows in {clock.seconds:.0f} s; table: {root / 'validation.md'}, "
                f"runs: {root / 'validation.csv'}, plot: {root / 'validation.png'}")

@@ -158,7 +158,7 @@ def _row(state, metrics):
 
 
 def study(case_dir, levels: int, out=None, overrides=(), cfls=(), set_values=(), times=(), serial: bool = False,
-          scheduler: str | None = None, force: bool = False, echo=None) -> tuple[list, str, Path]:
+          scheduler: str | None = None, force: bool = False, echo=None, quiet: bool = True) -> tuple[list, str, Path]:
     """Run a convergence study and write its report; returns (rows, report text, output dir).
 
     Ctrl-C, or runs that fail (the others go on): the report of the levels that finished is written (their errors
@@ -169,7 +169,7 @@ def study(case_dir, levels: int, out=None, overrides=(), cfls=(), set_values=(),
     out_dir = prepare_output_dir(base.output_dir(out, "convergence"), base.file, force)
     reference = reference_curves(base)
     try:
-        results = execute(run_task, tasks, serial, scheduler, echo=echo, keep_going=True)
+        results = execute(run_task, tasks, serial, scheduler, echo=echo, keep_going=True, quiet=quiet)
     except StudyInterrupted as stop:
         finished = [None if r is None or "failed" in r else r for r in stop.results]
         raise Interrupted(_keep_finished(out_dir, base, exact, tasks, finished, reference)[0]) from None

@@ -80,7 +80,7 @@ def observed(values, h) -> tuple[list, list, list]:
 
 
 def study(case_dir, levels: int, out=None, overrides=(), cfls=(), set_values=(), serial: bool = False,
-          scheduler: str | None = None, force: bool = False, echo=None) -> tuple[list, str, object]:
+          scheduler: str | None = None, force: bool = False, echo=None, quiet: bool = True) -> tuple[list, str, object]:
     """Run the refinement series and write evacuation.csv and evacuation.md; (rows, report text, directory).
 
     A level that fails or is not reached (Ctrl-C) has no times (nan); the others are tabulated, and StudyFailed
@@ -93,7 +93,7 @@ def study(case_dir, levels: int, out=None, overrides=(), cfls=(), set_values=(),
         raise InputError(base.file, "boundary.exits", [], "a scene without exits has no evacuation time")
     out_dir = prepare_output_dir(base.output_dir(out, "evacuation"), base.file, force)
     try:
-        results = execute(run_level, tasks, serial, scheduler, echo=echo, keep_going=True)
+        results = execute(run_level, tasks, serial, scheduler, echo=echo, keep_going=True, quiet=quiet)
         stopped = None
     except StudyInterrupted as stop:
         results, stopped = stop.results, stop

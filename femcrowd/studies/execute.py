@@ -9,6 +9,8 @@ import tempfile
 import threading
 from contextlib import contextmanager
 
+from tqdm import tqdm
+
 from ..errors import InputError
 from ..linalg.threads import thread_limit
 
@@ -22,7 +24,7 @@ class StudyInterrupted(KeyboardInterrupt):
 
 
 def execute(function, tasks: list, serial: bool = False, scheduler: str | None = None, echo=None,
-            keep_going: bool = False) -> list:
+            keep_going: bool = False, quiet: bool = True) -> list:
     """function(task) for every task, results in task order; through dask unless serial.
 
     Bigger runs are submitted with higher priority so that the longest one starts first.
@@ -30,23 +32,89 @@ def execute(function, tasks: list, serial: bool = False, scheduler: str | None =
     raises any error gives the result ``{"failed": one-line reason}`` and the others go on. Each task runs
     with one BLAS/OpenMP thread, in a dask worker as in this process: the workers share the
     cores, and run times measured either way are the same kind of number. Ctrl-C stops the
-    runs under way and raises StudyInterrupted with the results of those that finished.
+    runs under way and raises StudyInterrupted with the results of those that finished. Unless quiet, a
+    :class:`Progress` bar counts the runs on stderr.
     """
     function = _catching(function, keep_going)
     results = [None] * len(tasks)
-    try:
-        if serial:
-            for i, task in enumerate(tasks):
-                results[i] = _unwrap(function(task), keep_going)
-                _echo(echo, task, results[i])
-        else:
-            _distributed(function, tasks, scheduler, results, echo, keep_going)
-    except KeyboardInterrupt:
-        raise StudyInterrupted(results) from None
+    with Progress(len(tasks), echo, quiet) as progress:
+        try:
+            if serial:
+                for i, task in enumerate(tasks):
+                    results[i] = _unwrap(function(task), keep_going)
+                    _echo(progress, task, results[i])
+            else:
+                _distributed(function, tasks, scheduler, results, progress, keep_going)
+        except KeyboardInterrupt:
+            raise StudyInterrupted(results) from None
     return results
 
 
-def _distributed(function, tasks, scheduler, results, echo, keep_going):
+class Progress:
+    """The progress of a study on stderr, drawn as a run's bar is (tqdm, from 2 s on, none when quiet): the runs
+    done of the total, those failed, the time left (tqdm's, from the pace of the runs so far).
+
+    ``echo(line)`` prints what the study prints of a run (a line; stress: a scene's result, through its own echo)
+    above the bar, cleared and then drawn again below it; ``advance(failed)`` counts one run more. While the
+    bar is on, femcrowd's log lines (the warnings of the runs) are printed above it the same way."""
+
+    def __init__(self, total: int, echo=None, quiet: bool = True):
+        self.bar = tqdm(total=total, disable=quiet, delay=2.0, desc="study",
+                        bar_format="{l_bar}{bar}| {n}/{total} runs{postfix} [{elapsed}<{remaining}]")
+        self.print = echo
+        self.failed = 0
+
+    @contextmanager
+    def above(self):
+        """What is printed in this context goes above the bar. A bar not yet drawn (the first 2 s) is left
+        alone: clear() and refresh() would draw it."""
+        drawn = not self.bar.disable and self.bar.last_print_t >= self.bar.start_t + self.bar.delay
+        if drawn:
+            self.bar.clear()
+        try:
+            yield
+        finally:
+            if drawn:
+                self.bar.refresh()
+
+    def echo(self, line) -> None:
+        if self.print is not None:
+            with self.above():
+                self.print(line)
+
+    def advance(self, failed: bool = False) -> None:
+        if failed:
+            self.failed += 1
+            self.bar.set_postfix_str(f"{self.failed} failed", refresh=False)
+        self.bar.update()
+
+    def __enter__(self):
+        self.log = logging.getLogger("femcrowd")
+        self.handlers = self.log.handlers[:]
+        if not self.bar.disable:
+            self.log.handlers[:] = [_Above(self, self.handlers)]
+        return self
+
+    def __exit__(self, *exc):
+        self.log.handlers[:] = self.handlers
+        self.bar.close()
+
+
+class _Above(logging.Handler):
+    """The log's own handlers, their lines printed above a study's bar."""
+
+    def __init__(self, progress, handlers):
+        super().__init__()
+        self.progress, self.handlers = progress, handlers
+
+    def emit(self, record):
+        with self.progress.above():
+            for handler in self.handlers:
+                if record.levelno >= handler.level:
+                    handler.handle(record)
+
+
+def _distributed(function, tasks, scheduler, results, progress, keep_going):
     """Fill results[i] = function(tasks[i]) through dask, in the order the runs finish."""
     import dask
     from dask.distributed import Client, LocalCluster, as_completed
@@ -83,7 +151,7 @@ def _distributed(function, tasks, scheduler, results, echo, keep_going):
                     raise
                 result = failure(err)
             results[i] = _unwrap(result, keep_going)
-            _echo(echo, tasks[i], results[i])
+            _echo(progress, tasks[i], results[i])
     except KeyboardInterrupt:
         if cluster is not None:   # the runs under way are dropped: stop their workers now (not after 4 s)
             cluster.sync(_stop_workers, list(cluster.workers.values()))
@@ -138,13 +206,13 @@ def describe(task) -> str:
     return task.series if task.out else f"{task.series}, level {task.level} ({task.mesh})"
 
 
-def _echo(echo, task, result):
-    if echo is None:
-        return
+def _echo(progress, task, result):
+    """One run more on the bar, and the line of this one."""
+    progress.advance("failed" in result)
     if "failed" in result:
-        echo(f"  failed: {describe(task)}: {result['failed']}")
+        progress.echo(f"  failed: {describe(task)}: {result['failed']}")
     else:
-        echo(f"  done: {describe(task)}: {result.get('wall_seconds', result.get('wall', 0.0)):.2f} s")
+        progress.echo(f"  done: {describe(task)}: {result.get('wall_seconds', result.get('wall', 0.0)):.2f} s")
 
 
 def failure(err: Exception) -> dict:

@@ -24,6 +24,7 @@ from .. import shipped
 from ..case import load_case
 from ..driver import Simulation
 from ..timer import Stopwatch
+from .execute import Progress
 from .recommended import DISCS, DOOR_CAPACITY, FLUCTUATION, MACRO, PUSH, SPEED, door_capacity
 
 #: the cases (shipped with femcrowd)
@@ -317,9 +318,9 @@ def select(only=()) -> list:
     return [t for t in TESTS if not only or t.number in only]
 
 
-def run_test(test: RimeaTest, variant: str, cases=CASES, out=None, seed=None) -> tuple:
+def run_test(test: RimeaTest, variant: str, cases=CASES, out=None, seed=None, progress=None) -> tuple:
     """Run a test's cases with one variant (writing OUT/<case>-<variant> when out is given, OUT/<case>-<variant>-seed<k>
-    for a disc variant given a seed k: micro.seed = k); (Verdict, seconds)."""
+    for a disc variant given a seed k: micro.seed = k); (Verdict, seconds). progress: a Progress counting the runs."""
     clock = Stopwatch()
     chosen, results = VARIANTS[variant], []
     seeded = {"micro.seed": seed} if chosen.micro and seed is not None else {}
@@ -332,28 +333,33 @@ def run_test(test: RimeaTest, variant: str, cases=CASES, out=None, seed=None) ->
         suffix = ("" if isinstance(entry, str) else f"-{k}") + (f"-seed{seed}" if seeded else "")
         target = Path(out) / f"{name}-{variant}{suffix}" if out is not None else None
         results.append(Simulation(case).run(target, force=True))
+        if progress is not None:
+            progress.advance()
     return test.judge(results), clock.seconds
 
 
-def run_seeds(test: RimeaTest, variant: str, seeds: int, cases=CASES, out=None) -> tuple:
+def run_seeds(test: RimeaTest, variant: str, seeds: int, cases=CASES, out=None, progress=None) -> tuple:
     """A disc variant with micro.seed = 1 to `seeds` (Spread, seconds of all); a macro variant, deterministic, once."""
     if not VARIANTS[variant].micro:
-        return run_test(test, variant, cases, out)
-    runs = [run_test(test, variant, cases, out, seed) for seed in range(1, seeds + 1)]
+        return run_test(test, variant, cases, out, progress=progress)
+    runs = [run_test(test, variant, cases, out, seed, progress) for seed in range(1, seeds + 1)]
     return Spread([verdict for verdict, _ in runs]), sum(seconds for _, seconds in runs)
 
 
-def run_all(only=(), models=MODELS, cases=CASES, out=None, echo=None, seeds=None) -> list:
+def run_all(only=(), models=MODELS, cases=CASES, out=None, echo=None, seeds=None, quiet: bool = True) -> list:
     """Every selected test with every variant in `models` it runs with: rows (test, {variant: (Verdict, seconds)});
-    with `seeds`, the disc variants over micro.seed = 1 to `seeds` (:func:`run_seeds`: (Spread, seconds))."""
-    rows = []
-    for test in select(only):
-        verdicts = {variant: None if variant not in test.variants
-                    else run_test(test, variant, cases, out) if seeds is None
-                    else run_seeds(test, variant, seeds, cases, out) for variant in models}
-        rows.append((test, verdicts))
-        if echo is not None:
-            echo(format_row(test, verdicts))
+    with `seeds`, the disc variants over micro.seed = 1 to `seeds` (:func:`run_seeds`: (Spread, seconds)).
+    echo(row) after each test; unless quiet, a progress bar of the runs."""
+    rows, tests = [], select(only)
+    total = sum(len(test.cases) * (seeds if seeds and VARIANTS[variant].micro else 1)
+                for test in tests for variant in models if variant in test.variants)
+    with Progress(total, echo, quiet) as progress:
+        for test in tests:
+            verdicts = {variant: None if variant not in test.variants
+                        else run_test(test, variant, cases, out, progress=progress) if seeds is None
+                        else run_seeds(test, variant, seeds, cases, out, progress) for variant in models}
+            rows.append((test, verdicts))
+            progress.echo(format_row(test, verdicts))
     return rows
 
 

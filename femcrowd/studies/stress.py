@@ -29,6 +29,7 @@ from ..driver.output import prepare_output_dir
 from ..errors import InputError
 from ..files import replaced, write_text
 from ..timer import Stopwatch
+from .execute import Progress
 from .stress_checks import CHECKS, LINEAR_TOL, MASS_TOL, RHO_TOL, Check, Output, population_invariants
 
 #: the scenes (shipped with femcrowd)
@@ -123,18 +124,20 @@ def run_scene(name: str, out, cases=CASES, overrides=()) -> Result:
     return Result(name, summary, checks, wall)
 
 
-def run_matrix(out, only=(), cases=None, force: bool = False, echo=None) -> tuple[list, Path]:
+def run_matrix(out, only=(), cases=None, force: bool = False, echo=None, quiet: bool = True) -> tuple[list, Path]:
     """Run the scenes (all of `cases`, or those in `only`) into out/<scene> (out relative to the current
-    directory), write the tables out/stress.csv and out/stress.md; echo(result) after each scene.
+    directory), write the tables out/stress.csv and out/stress.md; echo(result) after each scene, and unless
+    quiet a progress bar of the scenes (a scene that fails a check counts as failed).
     Returns the results and the output directory."""
     cases = cases or CASES
     names = scenes(cases, only)
     root = prepare_output_dir(Path(out).resolve(), "femcrowd stress --out", force)
     results = []
-    for name in names:
-        results.append(run_scene(name, root / name, cases))
-        if echo:
-            echo(results[-1])
+    with Progress(len(names), echo, quiet) as progress:
+        for name in names:
+            results.append(run_scene(name, root / name, cases))
+            progress.advance(not results[-1].passed)
+            progress.echo(results[-1])
     write_tables(results, root / "stress")
     return results, root
 

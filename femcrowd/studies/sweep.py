@@ -50,13 +50,13 @@ def _row(task, result) -> dict:
 
 
 def sweep(case_dir, set_values, out=None, overrides=(), serial: bool = False, scheduler: str | None = None,
-          force: bool = False, echo=None) -> tuple:
+          force: bool = False, echo=None, quiet: bool = True) -> tuple:
     """Run every combination; write sweep.csv and sweep.md in the sweep directory. Returns (rows, text, dir).
 
     Runs that fail do not stop the others: all are tabulated, then StudyFailed names the failed ones."""
     base, root, tasks = plan_sweep(case_dir, set_values, out, overrides)
     root = prepare_output_dir(root, base.file, force)
-    results = execute(sweep_task, tasks, serial, scheduler, echo=echo, keep_going=True)
+    results = execute(sweep_task, tasks, serial, scheduler, echo=echo, keep_going=True, quiet=quiet)
     keys = list(tasks[0].values)
     rows = [_row(t, r) for t, r in zip(tasks, results)]
     columns = keys + list(SUMMARY_COLUMNS) + ["output_dir", "reason"]

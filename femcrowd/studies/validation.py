@@ -213,12 +213,12 @@ def markdown(table) -> str:
 
 
 def validate(out, settings=tuple(SETTINGS), widths=WIDTHS, levels: int = 3, seeds: int = 5, overrides=(),
-             serial=False, scheduler=None, force=False, echo=None) -> tuple:
+             serial=False, scheduler=None, force=False, echo=None, quiet: bool = True) -> tuple:
     """Run the validation into `out`: validation.csv (every run), validation.md (the table), validation.png.
     Returns (table, markdown, out)."""
     root = prepare_output_dir(Path(out), "--out", force)
     tasks = plan(settings, widths, levels, seeds, root, overrides)
-    rows = execute(run_task, tasks, serial, scheduler, echo=echo)
+    rows = execute(run_task, tasks, serial, scheduler, echo=echo, quiet=quiet)
     with replaced(root / "validation.csv", sync=True) as tmp, open(tmp, "w", newline="") as f:
         writer = csv.DictWriter(f, list(rows[0]))
         writer.writeheader()

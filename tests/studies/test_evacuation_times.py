@@ -68,7 +68,7 @@ def test_a_failed_level_leaves_the_others_tabulated(tmp_path, monkeypatch):
         return run_level(task)
     monkeypatch.setattr(evacuation, "run_level", failing_at_level_1)
     result = CliRunner().invoke(main, ["evacuation-times", str(CASES / "saturated-exit"), "--levels", "3",
-                                       "--serial", "--set", "time.end=1.0", "--out", str(tmp_path)])
+                                       "--serial", "--set", "time.end=1.0", "--out", str(tmp_path), "-q"])
     assert result.exit_code == 1 and "Traceback" not in result.output
     assert result.stderr.count("\n") == 1 and "1 of 3 runs failed" in result.stderr
     report = (tmp_path / "evacuation.md").read_text()

@@ -25,7 +25,7 @@ def test_sigint_to_a_dask_study_keeps_its_finished_levels(tmp_path):
     running then."""
     out = tmp_path / "study"
     proc = subprocess.Popen([str(FEMCROWD), "convergence", str(CASES / "corridor-wall"), "--levels", "4",
-                             "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                             "--out", str(out), "-q"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             preexec_fn=lambda: (os.setsid(), signal.signal(signal.SIGINT, signal.SIG_DFL)))
     first = proc.stdout.readline()   # "  done: default, level k (...)": that level's result is with the client
     assert "done:" in first, first
@@ -94,7 +94,7 @@ def test_a_failed_level_leaves_the_finished_ones_reported(tmp_path, monkeypatch)
         return run_task(task)
     monkeypatch.setattr(convergence, "run_task", failing_at_level_1)
     result = CliRunner().invoke(main, ["convergence", str(CASES / "corridor-wall"), "--levels", "3", "--serial",
-                                       "--set", "time.end=0.2", "--out", str(tmp_path)])
+                                       "--set", "time.end=0.2", "--out", str(tmp_path), "-q"])
     assert result.exit_code == 1, result.output
     assert "Traceback" not in result.output
     reason = "default, level 1 (corridor.msh refine 1): ProjectionError: no convergence in 50 iterations"

@@ -59,7 +59,7 @@ def sweep_with_a_bad_mesh(tmp_path, *options):
     meshes = f'mesh.file=["{tmp_path / "bad.msh"}", "{CASES.parent / "meshes" / "corridor.msh"}"]'
     return CliRunner().invoke(main, ["sweep", str(CASES / "corridor-wall"), "--set-values", meshes, "--set",
                                      "time.end=0.2", "--set", "output.every=0.2", "--out", str(tmp_path / "sweep"),
-                                     *options])
+                                     "-q", *options])
 
 
 def check_failed_member_is_tabulated(tmp_path, result):
@@ -113,7 +113,8 @@ def test_an_interrupted_sweep_does_not_count_a_failed_member_as_finished(tmp_pat
 
     monkeypatch.setattr(module, "sweep_task", fail_then_interrupt)
     result = CliRunner().invoke(main, ["sweep", str(CASES / "corridor-wall"), "--set-values",
-                                       "scheme.transport=upwind,muscl", "--serial", "--out", str(tmp_path / "sweep")])
+                                       "scheme.transport=upwind,muscl", "--serial", "--out", str(tmp_path / "sweep"),
+                                       "-q"])
     assert result.exit_code == 130, result.output
     assert result.stdout == "  failed: scheme.transport=upwind: RuntimeError: no step\n"
     assert result.stderr.startswith("femcrowd: interrupted; 0 of the study's 2 runs finished")
