@@ -23,14 +23,27 @@ def _floats(option):
     return parse
 
 
+def series_options(levels: int):
+    """--levels, --cfl and --set-values: the refinement series of a study (convergence, evacuation-times)."""
+    options = [
+        click.option("--levels", type=click.IntRange(2, 9), default=levels, show_default=True,
+                     help="Refinement levels: mesh.refine = base + 0..N-1 (or the first N of [convergence] meshes)."),
+        click.option("--cfl", callback=_floats("--cfl"), metavar="C1,C2,...",
+                     help="CFL numbers: one series per value (time-step study)."),
+        click.option("--set-values", "set_values", multiple=True, metavar="KEY=V1,V2,...",
+                     help="One series per value, e.g. scheme.transport=upwind,muscl (repeatable: all combinations)."),
+    ]
+
+    def decorate(command):
+        for option in reversed(options):
+            command = option(command)
+        return command
+    return decorate
+
+
 @main.command()
 @click.argument("case_dir", type=click.Path())
-@click.option("--levels", type=click.IntRange(2, 9), default=3, show_default=True,
-              help="Refinement levels: mesh.refine = base + 0..N-1 (or the first N of [convergence] meshes).")
-@click.option("--cfl", callback=_floats("--cfl"), metavar="C1,C2,...",
-              help="CFL numbers: one series per value (time-step study).")
-@click.option("--set-values", "set_values", multiple=True, metavar="KEY=V1,V2,...",
-              help="One series per value, e.g. scheme.transport=upwind,muscl (repeatable: all combinations).")
+@series_options(levels=3)
 @click.option("--times", callback=_floats("--times"), metavar="T1,T2,...",
               help="Measure also at these times (the final time always).")
 @set_option
@@ -62,12 +75,7 @@ def convergence(case_dir, levels, cfl, set_values, times, overrides, out, serial
 
 @main.command("evacuation-times")
 @click.argument("case_dir", type=click.Path())
-@click.option("--levels", type=click.IntRange(2, 9), default=4, show_default=True,
-              help="Refinement levels: mesh.refine = base + 0..N-1 (or the first N of [convergence] meshes).")
-@click.option("--cfl", callback=_floats("--cfl"), metavar="C1,C2,...",
-              help="CFL numbers: one series per value (time-step study).")
-@click.option("--set-values", "set_values", multiple=True, metavar="KEY=V1,V2,...",
-              help="One series per value, e.g. velocity.push=0.2,0.3 (repeatable: all combinations).")
+@series_options(levels=4)
 @set_option
 @study_out_option("evacuation")
 @serial_option
