@@ -90,6 +90,8 @@ SCHEMA = {
         "type": Key("exits", "choice", '"exits": U = -speed grad d / |grad d|, d the walking distance to the '
                     'nearest exit; "field": U given by ux, uy', ("exits", "field")),
         "speed": Key(1.0, "expr", "desired speed (m/s) for type exits: a number >= 0 or an expression in x, y"),
+        "speeds": Key({}, "regions", "for type exits: the desired speed (m/s) per physical surface group, in place "
+                      "of speed there, e.g. { stair = 0.6 } for the stair of a building (docs/floors.md)"),
         "ux": Key(0.0, "expr", "x component of U (m/s) for type field: an expression in x, y, t"),
         "uy": Key(0.0, "expr", "y component of U (m/s) for type field: an expression in x, y, t"),
         "speed_law": Key("constant", "law", SPEED_LAW_DOC),
@@ -297,7 +299,7 @@ def _fields(spec, value):
 
 def _regions(spec, value):
     if not isinstance(value, dict) or not all(is_number(v) for v in value.values()):
-        raise Refused("expected a table of surface-group names to densities")
+        raise Refused("expected a table of surface-group names to numbers")
     return value
 
 

@@ -72,6 +72,12 @@ def population_columns(names) -> list:
     return columns
 
 
+def level_columns(names) -> list:
+    """The columns of a building (docs/floors.md): on_<name>, the people on each floor and stair (its physical
+    surface group); the summary keeps the most there were on each."""
+    return [Column(f"on_{name}", ((f"levels.{name}.most_people", "max"),)) for name in names]
+
+
 class MacroModel:
     """A MacroState and its MacroSolver for a scene; rows of diagnostics in the user's density unit."""
 
@@ -107,6 +113,10 @@ class MacroModel:
         if self.several:
             self.initial_masses = self.state.rho @ domain.area
             self.columns += population_columns(self.state.populations)
+        # a building's floors and stairs: their people per row (docs/floors.md)
+        self.levels = {name: np.asarray(cells) for name, cells in (domain.mesh.subdomains or {}).items()
+                       if domain.z is not None and not name.startswith("gmsh:")}
+        self.columns += level_columns(self.levels)
         self.sources = self.measurements = None   # hooks only for the scenes that have them
         if scene.sources:
             self.sources = macro_inflow(case, scene.sources, domain, self.state.populations)
@@ -165,6 +175,9 @@ class MacroModel:
             by_exit.update(inflow=self.inflow * r, queued=self.sources.queued * r)
         if self.doors:
             by_exit.update(self._door_row(info))
+        if self.levels:
+            people = self.state.density * self.domain.area * r
+            by_exit.update({f"on_{name}": float(people[cells].sum()) for name, cells in self.levels.items()})
         return {**by_exit, "time": self.state.t, "dt": step[0], "mass": d["mass"] * r,
                 "evacuated": d["evacuated"] * r, "max_density": d["max_density"] * r,
                 "saturated_area": d["saturated_area"], "max_pressure": d["max_pressure"],

@@ -154,10 +154,17 @@ class FrameSeries:
 
 
 def triangle_frame(domain, cell_data) -> meshio.Mesh:
-    """A meshio mesh of the domain's triangles with cell data (vectors padded to 3 components)."""
-    points = np.column_stack([domain.points, np.zeros(len(domain.points))])
-    data = {name: [np.column_stack([v, np.zeros(len(v))]) if v.ndim == 2 and v.shape[1] == 2 else v]
-            for name, v in cell_data.items()}
+    """A meshio mesh of the domain's triangles with cell data (vectors padded to 3 components); a building's
+    (docs/floors.md) at the elevations of its nodes, its plan vectors lifted to its surface (z component s . v,
+    s = grad z of the cell)."""
+    if domain.z is None:
+        points = np.column_stack([domain.points, np.zeros(len(domain.points))])
+        data = {name: [np.column_stack([v, np.zeros(len(v))]) if v.ndim == 2 and v.shape[1] == 2 else v]
+                for name, v in cell_data.items()}
+    else:
+        points = np.column_stack([domain.points, domain.z])
+        data = {name: [np.column_stack([v, (domain.slope * v).sum(axis=1)]) if v.ndim == 2 and v.shape[1] == 2
+                       else v] for name, v in cell_data.items()}
     return meshio.Mesh(points, [("triangle", domain.triangles)], cell_data=data)
 
 

@@ -61,11 +61,26 @@ def desired_velocity(case: Case, domain: Domain, boundary: Boundary, spec=None, 
                          "(for such a scene give U itself: type = 'field')")
     if case["velocity"]["route"] == "congestion":
         law = SpeedLaw(spec["speed_law"], case["model"]["rho_max"], spec["push"], (case.file, key("speed_law")))
-        return CongestionVelocity(domain, speed, targets, law, case["velocity"]["route_every"],
-                                  case["velocity"]["walls"])
+        velocity = CongestionVelocity(domain, speed, targets, law, case["velocity"]["route_every"],
+                                      case["velocity"]["walls"])
+        region_speeds(case, domain, velocity.speed)
+        return velocity
     velocity = ExitsVelocity(domain, speed, targets, case["velocity"]["walls"])
+    region_speeds(case, domain, velocity.speed)
     velocity.cells(boundary.at(0.0))
     return velocity
+
+
+def region_speeds(case: Case, domain: Domain, speed: np.ndarray) -> None:
+    """velocity.speeds: the desired speed per physical surface group (a stair's), written into the cells' speed."""
+    subdomains = domain.mesh.subdomains or {}
+    for name, value in case["velocity"]["speeds"].items():
+        if name not in subdomains:
+            raise InputError(case.file, f"velocity.speeds.{name}", value,
+                             f"no surface group of that name (groups: {', '.join(subdomains) or 'none'})")
+        if value < 0:
+            raise InputError(case.file, f"velocity.speeds.{name}", value, "a desired speed must be >= 0")
+        speed[np.asarray(subdomains[name])] = value
 
 
 def initial_density(case: Case, domain: Domain, source=None, key="initial.density", people=None,

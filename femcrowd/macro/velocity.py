@@ -43,6 +43,12 @@ from .walls import wall_treatment
 ROUTE_FLOOR = 0.05
 
 
+def lifted(domain, normal_velocity, facets=slice(None)):
+    """(2, F) U . n of a plan velocity on `facets`, as the flux through the facets on the surface of a building
+    (domain.lift; docs/floors.md), per unit of their length there; unchanged on a plane floor plan."""
+    return normal_velocity if domain.lift is None else normal_velocity * domain.lift[:, facets]
+
+
 class FieldVelocity:
     """U given by expressions ux(x, y, t), uy(x, y, t)."""
 
@@ -62,7 +68,7 @@ class FieldVelocity:
     def normal_on_facets(self, state, exits=None, facets=slice(None)) -> np.ndarray:
         """(2, F): U(m_e) . n_e on `facets` (default all), the same seen from both cells of the facet."""
         a = np.einsum("ij,ij->i", self.at_points(self.domain.midpoint[facets], state.t), self.domain.normal[facets])
-        return np.stack([a, a])
+        return lifted(self.domain, np.stack([a, a]), facets)
 
 
 class ExitsVelocity:
@@ -75,7 +81,7 @@ class ExitsVelocity:
         self.walls = walls
         self.speed = speed(domain.centroid[:, 0], domain.centroid[:, 1], 0.0)
         self.targets = None if targets is None else frozenset(targets)
-        self.eikonal = Eikonal(domain.points, domain.triangles)
+        self.eikonal = Eikonal(domain.points, domain.triangles, domain.z)
         self.cost = None    # per cell: None, the geodesic distance (CongestionVelocity sets it)
         self._cells = {}  # per set of open target exits
         self.distance = {}
@@ -95,15 +101,27 @@ class ExitsVelocity:
         return self._cells[heading]
 
     def _down(self, grad, exits, level) -> np.ndarray:
-        """U = -speed grad / |grad| per cell (0 where the gradient is 0 or not finite), with the wall treatment
-        of ``walls`` (level: the potential per cell, which orders the cells that are made to drain)."""
-        norm = np.hypot(grad[:, 0], grad[:, 1])
+        """U = -speed grad / |grad| per cell, on a building its lift (_steepest) (0 where the gradient is 0 or not
+        finite), with the wall treatment of ``walls`` (level: the potential per cell, which orders the cells that
+        are made to drain)."""
+        grad, norm = self._steepest(grad)
         ok = np.isfinite(norm) & (norm > 0)
         cells = np.zeros((self.domain.ncells, 2))
         cells[ok] = -(self.speed[ok] / norm[ok])[:, None] * grad[ok]
         if self.walls == "slip":
             return wall_treatment(self.domain, exits, cells, self.speed, level)
         return cells
+
+    def _steepest(self, grad):
+        """The direction of steepest descent of d per cell and the norm that makes its lift a unit vector: grad d and
+        |grad d| in a plane; on a building (docs/floors.md) G^-1 grad d and (grad d . G^-1 grad d)^(1/2), with
+        G = I + s s^T the metric of the cell's plane (s = grad z), G^-1 = I - s s^T / (1 + |s|^2)."""
+        s = self.domain.slope
+        if s is None:
+            return grad, np.hypot(grad[:, 0], grad[:, 1])
+        with np.errstate(invalid="ignore"):
+            steep = grad - (np.einsum("ij,ij->i", s, grad) / (1 + (s * s).sum(1)))[:, None] * s
+            return steep, np.sqrt(np.einsum("ij,ij->i", grad, steep))
 
     def _on_ridges(self, exits, heading, grad):
         """On the ridges of d between two exits (cells whose nodes are nearest to different exits), the
@@ -150,7 +168,8 @@ class ExitsVelocity:
         boundary)."""
         k0, k1 = self.domain.f2t[0][facets], self.domain.f2t[1][facets]
         n, cells = self.domain.normal[facets], self.cells(exits)
-        return np.stack([np.einsum("ij,ij->i", cells[k], n) for k in (k0, np.where(k1 >= 0, k1, k0))])
+        return lifted(self.domain, np.stack([np.einsum("ij,ij->i", cells[k], n)
+                                             for k in (k0, np.where(k1 >= 0, k1, k0))]), facets)
 
 
 class CongestionVelocity(ExitsVelocity):

@@ -70,6 +70,25 @@ def check_cracks(mesh, fail) -> None:
              "unnamed wall (merge the nodes, e.g. gmsh's Coherence, or name the group if it is a wall)")
 
 
+def check_pieces(mesh, tol, fail) -> None:
+    """fail(message) unless the mesh of a building (its elevations mesh.z) is made of plane pieces: every triangle
+    in a named physical surface (a floor or a stair), and z an affine function of (x, y) on each (docs/floors.md)."""
+    pieces = {name: cells for name, cells in (mesh.subdomains or {}).items() if not name.startswith("gmsh:")}
+    covered = np.zeros(mesh.t.shape[1], bool)
+    for name, cells in pieces.items():
+        covered[cells] = True
+        nodes = np.unique(mesh.t[:, cells])
+        plane = np.column_stack([mesh.p[:, nodes].T, np.ones(len(nodes))])
+        coefficients = np.linalg.lstsq(plane, mesh.z[nodes], rcond=None)[0]
+        off = np.abs(plane @ coefficients - mesh.z[nodes]).max()
+        if off > tol:
+            fail(f"the mesh is not planar: z varies off a plane by {off:.3g} on the surface group {name!r}; a building "
+                 "is made of plane floors and stairs, each a named surface (femcrowd mesh of a building plan)")
+    if not covered.all():
+        fail(f"the mesh is not planar (z varies) and {np.count_nonzero(~covered)} triangles are in no named surface "
+             "group: a building's triangles each belong to a floor or a stair (femcrowd mesh of a building plan)")
+
+
 def regions(f2t: np.ndarray, ncells: int) -> tuple[int, np.ndarray]:
     """The connected components of the cells through their interior facets: (count, region of each cell)."""
     inner = f2t[1] >= 0

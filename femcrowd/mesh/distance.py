@@ -38,7 +38,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from .triangles import doubled_areas
+from .triangles import doubled_areas, surface_areas, surface_edges
 
 #: The iteration stops changing a node when it would decrease by less than this fraction of
 #: the mean edge length (1e-6: the result agrees to 3 digits with a 1e-9 tolerance, at half
@@ -64,7 +64,9 @@ class Eikonal:
     geometry, corners grouped by node) built once, solved for any exits and cost per triangle (Hughes 2002:
     cost 1 / f(rho) gives the route choice of a crowd that sees congestion)."""
 
-    def __init__(self, points, triangles):
+    def __init__(self, points, triangles, elevation=None):
+        """elevation: the z of each node of a building (docs/floors.md), whose local solves then use the edges and
+        areas of the triangles on the surface; the seeds at the exits stay in plan (exits lie on a floor)."""
         p = np.asarray(points, dtype=float)
         t = np.asarray(triangles, dtype=np.int64)
         if t.size == 0:
@@ -77,7 +79,7 @@ class Eikonal:
             raise ValueError(f"triangles refer to nodes outside 0..{len(p) - 1}")
         if not np.isfinite(p).all():
             raise ValueError("points contain NaN or inf")
-        self.points, self.triangles = p, t
+        self.points, self.triangles, self.elevation = p, t, elevation
         self._corners = None
         self._seeds = {}   # per set of exit edges
 
@@ -97,7 +99,7 @@ class Eikonal:
         if len(self.triangles) == 0 or not np.isfinite(d).any():
             return d.reshape(len(seeded), len(self.points))
         if self._corners is None:
-            self._corners = _Corners(self.points, self.triangles)
+            self._corners = _Corners(self.points, self.triangles, self.elevation)
         corners = self._corners if len(seeded) == 1 else self._corners.tiled(len(seeded))
         slowness = None if cost is None else np.append(np.tile(np.repeat(cost, 3), len(seeded)), 1.0)
         return _fim(corners, np.append(d, np.inf), slowness)[:-1].reshape(len(seeded), len(self.points))
@@ -159,14 +161,17 @@ class _Corners:
     each node's least value along a row, with no per-corner bookkeeping in Python.
     """
 
-    def __init__(self, p, t):
+    def __init__(self, p, t, elevation=None):
         n, m = len(p), len(t)
         self.nodes, self.copies, self.empty = n, 1, 3 * m
         index_type = np.int32 if max(n + 1, 3 * m + 1) < 2**31 - 1 else np.int64
-        x0, x1, x2 = p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
-        # edge[:, k] = length of the edge opposite vertex k
-        edge = np.stack([np.hypot(*(x2 - x1).T), np.hypot(*(x0 - x2).T), np.hypot(*(x1 - x0).T)], axis=1)
-        area2 = np.abs(doubled_areas(p, t))
+        if elevation is None:
+            x0, x1, x2 = p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
+            # edge[:, k] = length of the edge opposite vertex k
+            edge = np.stack([np.hypot(*(x2 - x1).T), np.hypot(*(x0 - x2).T), np.hypot(*(x1 - x0).T)], axis=1)
+            area2 = np.abs(doubled_areas(p, t))
+        else:   # on the surface of a building
+            edge, area2 = surface_edges(p, elevation, t), 2 * surface_areas(p, elevation, t)
         # each row written in place: copies of arrays this size are slow to touch (docs/performance.md, "Route choice")
         self.geometry = np.zeros((5, 3 * m + 1))
         ca, cb, iL, wpar, wperp = self.geometry[:, :-1]

@@ -9,6 +9,12 @@ pressure Laplacian (Eymard, Gallouet, Herbin 2000, "Finite volume methods",
 sec. 9: the circumcentres of a Delaunay mesh are the admissible cell centres).
 Which exits are open at a time t is not a property of the floor plan: see
 :mod:`femcrowd.mesh.boundary`. Holes in the mesh are obstacles.
+
+A building (docs/floors.md: a mesh with elevations ``z``, plane floors and stairs) keeps its plan (x, y) as
+``points``, ``centroid``, ``midpoint`` and ``normal``, and measures on the surface what the operators weigh: the
+cell areas, the facet lengths, the circumcentre distances of T_e; ``lift`` (2, F) turns a plan velocity's flux
+U . n into the flux through the facet on the surface (the Piola identity of the lift of a plane piece), and
+``slope`` is grad z per cell (the metric I + slope slope^T of each piece).
 """
 
 import difflib
@@ -21,7 +27,7 @@ from ..errors import InputError, not_a_file
 from .checks import regions
 from .gmsh_io import read_mesh
 from .locate import PointLocator
-from .triangles import P1Gradient, doubled_areas
+from .triangles import P1Gradient, doubled_areas, surface_areas
 
 #: d_e is clipped from below at this fraction of the centroid distance (see _transmissibility).
 CLIP_FRACTION = 0.02
@@ -57,12 +63,54 @@ class Domain:
         normal[flip] *= -1
         self.normal = normal
 
+        self.z = getattr(mesh, "z", None)
+        self.lift = self.slope = None
+        if self.z is not None:
+            self._on_surface()
+
         self.groups = {name: np.asarray(f) for name, f in (mesh.boundaries or {}).items()
                        if not name.startswith("gmsh:")}
         self.exit_names = list(exits)
         self.exit_group = {name: self.groups[name] for name in self.exit_names}
         self.transmissibility, self.non_delaunay, self.clipped = self._transmissibility()
         self._locator = None
+
+    def _on_surface(self):
+        """The geometry of a building measured on its surface (module docstring); the plan kept for the rest."""
+        plan_area, plan_length = self.area, self.length
+        t, facets = self.triangles, self.mesh.facets
+        xyz = np.column_stack([self.points, self.z])
+        a, b, c = xyz[t[:, 0]], xyz[t[:, 1]], xyz[t[:, 2]]
+        self.area = surface_areas(self.points, self.z, t)
+        self.length = np.linalg.norm(xyz[facets[1]] - xyz[facets[0]], axis=1)
+        self.slope = P1Gradient(self.points, t)(self.z)
+        k1 = np.where(self.interior, self.f2t[1], self.f2t[0])
+        stretch = self.area / plan_area
+        self.lift = np.stack([stretch[k] * plan_length / self.length for k in (self.f2t[0], k1)])
+        self.surface_circumcentre = _circumcentres_3d(a, b, c)
+        self.surface_centroid = (a + b + c) / 3.0
+
+    def _surface_distances(self):
+        """Per facet the distances (circumcentres, centroids) between its two cells measured across the facet on
+        the surface: the sum of each cell's distance to the facet's line in its own plane, signed positive on the
+        cell's side (the one cell's and the facet for an exit facet), as the plan's d_e along the normal."""
+        xyz = np.column_stack([self.points, self.z])
+        start, end = xyz[self.mesh.facets[0]], xyz[self.mesh.facets[1]]
+        tangent = (end - start) / self.length[:, None]
+
+        def across(point, cell):   # signed distance of point to the facet's line, in the plane of cell
+            off = point - start
+            off -= np.einsum("ij,ij->i", off, tangent)[:, None] * tangent
+            inside = self.surface_centroid[cell] - start
+            inside -= np.einsum("ij,ij->i", inside, tangent)[:, None] * tangent
+            return np.linalg.norm(off, axis=1) * np.sign(np.einsum("ij,ij->i", off, inside))
+
+        k0, k1 = self.f2t[0], self.f2t[1]
+        other = np.maximum(k1, 0)
+        inner = self.interior
+        d_cc = across(self.surface_circumcentre[k0], k0) + inner * across(self.surface_circumcentre[other], other)
+        d_g = across(self.surface_centroid[k0], k0) + inner * across(self.surface_centroid[other], other)
+        return d_cc, d_g
 
     @property
     def ncells(self) -> int:
@@ -115,11 +163,14 @@ class Domain:
         normal: the M-matrix is kept, the few affected pairs are counted and
         reported, and consistency is lost only on those pairs.
         """
-        k0, k1 = self.f2t[0], np.where(self.interior, self.f2t[1], self.f2t[0])
-        far_cc = np.where(self.interior[:, None], self.circumcentre[k1], self.midpoint)
-        far_g = np.where(self.interior[:, None], self.centroid[k1], self.midpoint)
-        d_cc = np.einsum("ij,ij->i", far_cc - self.circumcentre[k0], self.normal)
-        d_g = np.einsum("ij,ij->i", far_g - self.centroid[k0], self.normal)
+        if self.z is None:
+            k0, k1 = self.f2t[0], np.where(self.interior, self.f2t[1], self.f2t[0])
+            far_cc = np.where(self.interior[:, None], self.circumcentre[k1], self.midpoint)
+            far_g = np.where(self.interior[:, None], self.centroid[k1], self.midpoint)
+            d_cc = np.einsum("ij,ij->i", far_cc - self.circumcentre[k0], self.normal)
+            d_g = np.einsum("ij,ij->i", far_g - self.centroid[k0], self.normal)
+        else:
+            d_cc, d_g = self._surface_distances()
         used = self.interior.copy()
         for facets in self.exit_group.values():
             used[facets] = True
@@ -155,6 +206,14 @@ def _circumcentres(a, b, c, cross):
     return a + np.column_stack([ux, uy])
 
 
+def _circumcentres_3d(a, b, c):
+    """Circumcentres of triangles (a, b, c) in space: a + (|u|^2 v - |v|^2 u) x (u x v) / (2 |u x v|^2)."""
+    u, v = b - a, c - a
+    w = np.cross(u, v)
+    top = np.cross((u * u).sum(1)[:, None] * v - (v * v).sum(1)[:, None] * u, w)
+    return a + top / (2 * (w * w).sum(1))[:, None]
+
+
 def load_domain(file, exits=(), refine=0, case_file="case.toml", check=None) -> Domain:
     """Read a gmsh mesh (2.2 or 4.1) into a Domain with these exit groups; errors name the case key.
 
@@ -179,5 +238,12 @@ def load_domain(file, exits=(), refine=0, case_file="case.toml", check=None) -> 
                              "not boundary edges")
     if check is not None:
         check(mesh.t.shape[1] * 4 ** int(refine))   # a uniform refinement splits each triangle in 4
-    mesh = mesh.refined(int(refine)) if refine else mesh
+    if refine and mesh.z is None:
+        mesh = mesh.refined(int(refine))
+    elif refine:
+        z = mesh.z
+        for _ in range(int(refine)):
+            z = None if z is None else np.concatenate([z, z[mesh.facets].mean(axis=0)])   # skfem: midpoints last
+            mesh = mesh.refined()
+            mesh.z = z
     return Domain(mesh, exits, source=path)

@@ -22,6 +22,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..files import make_directory, replaced
+from .building import read_toml_building
 from .cad import read_plan
 from .plan import PlanReader, polygon_edges, read_toml_plan
 
@@ -72,6 +73,7 @@ def build_mesh(geometry_file, out=None, refine_exits=None, gmsh_options=None, ca
                          f"{out / geometry_file.with_suffix('.msh').name})")
     if out.suffix.lower() != ".msh":
         raise InputError(out, None, None, "femcrowd mesh writes gmsh .msh files only: give -o a name ending in .msh")
+    building = None
     if geometry_file.suffix.lower() in (".dxf", ".wkt"):
         size, loops, circles, exits, tol, doors = read_plan(geometry_file, **(cad or {}), require_exits=require_exits)
     else:
@@ -79,15 +81,20 @@ def build_mesh(geometry_file, out=None, refine_exits=None, gmsh_options=None, ca
         if unused:
             raise InputError(geometry_file, unused[0], cad[unused[0][2:].replace("-", "_")],
                              "for DXF and WKT plans only: a TOML plan is in metres, its walls have a 'thickness'")
-        size, loops, circles, exits, tol, doors = read_toml_plan(geometry_file, require_exits)
+        building = read_toml_building(geometry_file, require_exits)
+        if building is None:
+            size, loops, circles, exits, tol, doors = read_toml_plan(geometry_file, require_exits)
     if refine_exits is not None:
         refine_exits = PlanReader(geometry_file).size("refine_exits", refine_exits)
     gmsh.initialize(readConfigFiles=False, interruptible=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add(geometry_file.stem)
-        exit_curves = _geometry(loops, circles, exits, doors, tol)
-        _exit_sizes(exits, exit_curves, size, refine_exits)
+        if building is None:
+            _exit_sizes(exits, _geometry(loops, circles, exits, doors, tol), size, refine_exits)
+        else:
+            size, floors, stairs = building
+            _exit_sizes(*_building_geometry(floors, stairs), size, refine_exits)
         options = {"Mesh.MeshSizeMax": size, "Mesh.MeshSizeFromPoints": 0, "Mesh.MeshSizeExtendFromBoundary": 0,
                    "Mesh.Algorithm": 6, "Mesh.Smoothing": 5, "Mesh.MshFileVersion": 2.2, "Mesh.Binary": 0}
         for option, value in {**options, **(gmsh_options or {})}.items():
@@ -160,3 +167,60 @@ def _exit_sizes(exits, exit_curves, size, refine_exits) -> None:
         smallest = gmsh.model.mesh.field.add("Min")
         gmsh.model.mesh.field.setNumbers(smallest, "FieldsList", fields)
         gmsh.model.mesh.field.setAsBackgroundMesh(smallest)
+
+
+def _building_geometry(floors, stairs) -> tuple:
+    """The building in gmsh's geo kernel: each floor's loops at its elevation (split at its exits and at its stair
+    ends), each stair a plane surface through the curves of its foot and head; physical groups as the module says.
+    Returns the exits of every floor (stair ends left out) and the curves of each, as _exit_sizes takes them."""
+    geo = gmsh.model.geo
+    groups, surfaces, all_exits, exit_curves = defaultdict(list), {}, [], defaultdict(list)
+    stair_names = {s[0] for s in stairs}
+    landing = defaultdict(list)   # stair name -> [(elevation, line, its end points)] of its foot and head
+    for name, z, (_, loops, circles, exits, tol, _) in floors:
+        curve_loops, first = [], len(all_exits)
+        all_exits += [e for e in exits if e[3] not in stair_names]
+        number = {k: first + sum(e[3] not in stair_names for e in exits[:k]) for k in range(len(exits))}
+        for pts, labels, ids in _split(loops, exits, tol):
+            tags = [geo.addPoint(x, y, z) for x, y in pts]
+            lines = [geo.addLine(s, e) for s, e in zip(tags, tags[1:] + tags[:1])]
+            curve_loops.append(geo.addCurveLoop(lines))
+            for line, label, k, ends in zip(lines, labels, ids, zip(tags, tags[1:] + tags[:1])):
+                if label in stair_names:
+                    landing[label].append((z, line, ends))
+                else:
+                    groups[label].append(line)
+                    if k is not None:
+                        exit_curves[number[k]].append(line)
+        for _, c, radius in circles:
+            centre = geo.addPoint(*c, z)
+            rim = [geo.addPoint(*(c + radius * np.array([np.cos(a), np.sin(a)])), z) for a in np.pi / 2 * np.arange(4)]
+            arcs = [geo.addCircleArc(s, centre, e) for s, e in zip(rim, rim[1:] + rim[:1])]
+            curve_loops.append(geo.addCurveLoop(arcs))
+            groups["wall"] += arcs
+        surfaces[name] = geo.addPlaneSurface(curve_loops)
+    for name, *_ in stairs:
+        (_, foot, (a, b)), (_, head, (c, d)) = sorted(landing[name])   # one line each, the foot first
+        # the foot runs a -> b; the head must run from the end beside b
+        if np.linalg.norm(_xy(b) - _xy(d)) < np.linalg.norm(_xy(b) - _xy(c)):
+            head, c, d = -head, d, c
+        sides = [geo.addLine(b, c), geo.addLine(d, a)]
+        loop = [foot, sides[0], head, sides[1]]
+        corners = np.array([_xy(p) for p in (a, b, c, d)])
+        if (corners[:, 0] * np.roll(corners[:, 1], -1) - np.roll(corners[:, 0], -1) * corners[:, 1]).sum() < 0:
+            loop = [-line for line in loop[::-1]]   # counter-clockwise in plan, as the floors' triangles
+        surfaces[name] = geo.addPlaneSurface([geo.addCurveLoop(loop)])
+        groups["wall"] += sides
+    geo.synchronize()
+    for name, curves in groups.items():
+        gmsh.model.addPhysicalGroup(1, curves, name=name)
+    for name, surface in surfaces.items():
+        gmsh.model.addPhysicalGroup(2, [surface], name=name)
+    return all_exits, exit_curves
+
+
+def _xy(point):
+    """The plan coordinates of a geo point."""
+    gmsh.model.geo.synchronize()
+    return np.array(gmsh.model.getValue(0, point, [])[:2])
+

@@ -1,10 +1,11 @@
-"""Reading gmsh meshes: checked, planar, triangle-only MeshTri with named groups, in a cache-friendly order.
+"""Reading gmsh meshes: checked, triangle-only MeshTri with named groups, in a cache-friendly order.
 
 ``read_mesh`` accepts gmsh .msh 2.2 and 4.1 (through meshio) and reads the
 ASCII MSH 2.2 files that ``femcrowd mesh`` writes with a numpy parser of its
 own (see :func:`_read_msh22_ascii`). Named physical lines become
 ``mesh.boundaries``, named physical surfaces ``mesh.subdomains``; cells and
-nodes are renumbered along a Z-order curve.
+nodes are renumbered along a Z-order curve. A mesh whose z varies is a building (docs/floors.md): its
+elevations are kept as ``mesh.z``, its (x, y) as the plan; a planar mesh has ``mesh.z = None``.
 """
 
 import hashlib
@@ -17,14 +18,14 @@ import numpy as np
 import skfem
 
 from ..errors import InputError
-from .checks import check_cracks, check_triangles
+from .checks import check_cracks, check_pieces, check_triangles
 
 _SOLID = {"tetra", "hexahedron", "wedge", "pyramid", "tetra10", "hexahedron20", "hexahedron27"}
 
 
 def read_mesh(path: Path, case_file) -> skfem.MeshTri:
-    """Read a gmsh .msh with meshio and check it is a planar, triangle-only, finite mesh, without degenerate or
-    inverted triangles nor cracks (checks.py).
+    """Read a gmsh .msh with meshio and check it is a triangle-only, finite mesh, without degenerate or
+    inverted triangles (in plan) nor cracks (checks.py); z, if it varies, is the elevation of a building.
 
     meshio.gmsh.read is called directly: meshio.read prints to stdout and calls
     sys.exit when no reader accepts a file. skfem's reader would silently drop z
@@ -49,11 +50,13 @@ def read_mesh(path: Path, case_file) -> skfem.MeshTri:
     points = data.points
     if not np.all(np.isfinite(points)):
         fail("the mesh has non-finite node coordinates")
-    extent = float(np.ptp(points[:, :2], axis=0).max())
-    if points.shape[1] > 2 and np.ptp(points[:, 2]) > 1e-12 * extent:
-        fail("the mesh is not planar (z varies); femcrowd needs a 2D mesh")
     check_triangles(points, np.concatenate([c.data for c in data.cells if c.type == "triangle"]), fail)
     mesh = _ordered_mesh(data)
+    extent = float(np.ptp(points[:, :2], axis=0).max())
+    z = points[mesh.order, 2] if points.shape[1] > 2 else np.zeros(len(points))
+    mesh.z = z if np.ptp(z) > 1e-12 * extent else None
+    if mesh.z is not None:
+        check_pieces(mesh, 1e-9 * max(extent, np.ptp(z)), fail)
     check_cracks(mesh, fail)
     return mesh
 
@@ -197,6 +200,7 @@ def _ordered_mesh(data):
     t, t_tags = t[cell_order], t_tags[cell_order]
     mesh = skfem.MeshTri(np.ascontiguousarray(xy[node_order].T), np.ascontiguousarray(t.T), validate=False)
     t = mesh.t.T.astype(np.int64)  # skfem may reorder the nodes of each triangle
+    mesh.order = node_order   # the file's node of each node
 
     nt, nv = len(t), len(xy)
     local = ((0, 1), (1, 2), (0, 2))  # skfem's facet numbering of a triangle

@@ -171,13 +171,17 @@ def read_toml_plan(file, require_exits=False):
     (from, to, name).
     """
     r = PlanReader(file, require_exits)
+    return check_plan(read_toml(file, r), r)
+
+
+def read_toml(file, r):
+    """The parsed TOML of a plan file; a syntax error or an unreadable file named by the reader r."""
     try:
-        data = tomllib.loads(pathlib.Path(file).read_text())
+        return tomllib.loads(pathlib.Path(file).read_text())
     except tomllib.TOMLDecodeError as e:
         raise r.error(None, None, f"TOML syntax error: {e}") from None
     except OSError as e:
         raise r.error(None, None, f"cannot read the geometry file: {e.strerror}") from None
-    return check_plan(data, r)
 
 
 def check_plan(data, r):

@@ -9,6 +9,20 @@ def doubled_areas(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
 
 
+def surface_areas(points, elevation, triangles) -> np.ndarray:
+    """The areas of the triangles of a building (docs/floors.md): plan points (n, 2), elevations (n,)."""
+    p = np.column_stack([points, elevation])
+    a, b, c = (p[triangles[:, k]] for k in range(3))
+    return 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
+
+
+def surface_edges(points, elevation, triangles) -> np.ndarray:
+    """(m, 3): the length on the surface of the edge of each triangle opposite each of its vertices."""
+    p = np.column_stack([points, elevation])
+    x = p[triangles]
+    return np.linalg.norm(np.roll(x, -2, axis=1) - np.roll(x, -1, axis=1), axis=2)
+
+
 class P1Gradient:
     """The gradient per triangle of the P1 interpolant of nodal values; the triangles' edge vectors kept."""
 
