@@ -181,10 +181,13 @@ class Domain:
         return T, int(np.count_nonzero(used & (d_cc < 0))), int(np.count_nonzero(clipped))
 
     def statistics(self) -> dict:
-        """Mesh statistics for summary.json and `femcrowd info`."""
-        x = self.points[self.triangles]
+        """Mesh statistics for summary.json and `femcrowd info` (angles on the surface of a building)."""
+        x = self.points[self.triangles] if self.z is None else np.column_stack([self.points, self.z])[self.triangles]
         u, v = np.roll(x, -1, axis=1) - x, np.roll(x, 1, axis=1) - x  # the two edges at each corner
-        angles = np.arctan2(np.abs(u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]), (u * v).sum(-1))
+        if self.z is None:
+            angles = np.arctan2(np.abs(u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]), (u * v).sum(-1))
+        else:
+            angles = np.arctan2(np.linalg.norm(np.cross(u, v), axis=-1), (u * v).sum(-1))
         groups = {name: float(self.length[f].sum()) for name, f in self.groups.items()}
         exit_facets = np.unique(np.concatenate([np.zeros(0, np.intp), *self.exit_group.values()]))
         return {

@@ -11,6 +11,8 @@ from femcrowd.cli import main
 from femcrowd.mesh import load_domain
 from femcrowd.mesh.domain import Domain
 
+from ..support import MESHES
+
 #: a straight corridor 2 m wide: the upper floor x in [0, 4] at z = 3, a stair down over x in [4, 8] in plan (rise 3,
 #: run 4: 5 m along the slope), the ground floor x in [8, 12] at z = 0 with its exit at x = 12; unfolded, a
 #: straight strip 13 m long
@@ -76,6 +78,9 @@ def test_the_surface_geometry_is_that_of_the_building_laid_flat(tmp_path, refine
     assert np.allclose(domain.length, flat.length, rtol=1e-12, atol=0)
     assert np.allclose(domain.transmissibility, flat.transmissibility, rtol=1e-9, atol=1e-12)
     assert domain.clipped == flat.clipped and domain.non_delaunay == flat.non_delaunay
+    mine, theirs = domain.statistics(), flat.statistics()
+    for key in ("area", "min_angle_deg", "max_angle_deg", "h_max", "h_min"):
+        assert mine[key] == pytest.approx(theirs[key], rel=1e-12), key
     # the flux of a plan velocity through a facet on the surface: the lift is 1 on the floors and across the
     # stair (run and slope edges alike), |e| J / |e|_surface on the stair's other facets
     assert domain.lift.min() == pytest.approx(1.0) and domain.lift.max() <= SLOPE * (1 + 1e-12)
@@ -182,3 +187,28 @@ def test_the_frames_stand_at_the_floors_elevations_and_the_history_counts_each_f
     # down the slope (a drop of 3 over a run of 4), tangent to it, at the stair's speed along it (free flow: u = U)
     assert len(moving) > 10 and np.allclose(velocity[moving, 2] / velocity[moving, 0], -3.0 / 4.0, rtol=1e-9)
     assert np.allclose(np.linalg.norm(velocity[moving], axis=1), 0.65, rtol=1e-9)
+
+
+def test_the_three_storey_building_is_one_surface_over_floors_that_overlap_in_plan():
+    """meshes/three_storeys.toml: three floors above each other (the same plan, less the stairs and stairwells),
+    two stairs; floors overlapping in plan are told apart by their elevations, the surface is connected."""
+    domain = load_domain(MESHES / "three_storeys.msh", ["exit"])
+    areas = {name: domain.area[cells].sum() for name, cells in domain.mesh.subdomains.items()}
+    expected = {"ground": 54.0, "first": 48.0, "second": 54.0, "stair_01": 7.5, "stair_12": 7.5}
+    assert areas == pytest.approx(expected, rel=1e-12) and domain.region.max() == 0
+    for name, z in (("ground", 0.0), ("first", 3.0), ("second", 6.0)):
+        assert np.all(domain.z[domain.triangles[domain.mesh.subdomains[name]]] == z)
+    assert domain.non_delaunay == 0 and domain.clipped == 0
+
+
+@pytest.mark.parametrize(("setting", "key"), [
+    ("model.type=micro", "model.type"), ("scheme.transport=muscl", "scheme.transport"),
+    ("measure.lines=[{name = 'l', from = [10, 0], to = [10, 2]}]", "measure.lines"),
+])
+def test_what_a_building_cannot_run_yet_is_refused_in_one_line(tmp_path, setting, key):
+    corridor(tmp_path, 0.5)
+    (tmp_path / "case.toml").write_text(WALK)
+    result = CliRunner().invoke(main, ["run", str(tmp_path), "--set", setting, "--out", str(tmp_path / "out"), "-q"])
+    assert result.exit_code == 2 and f": {key} = " in result.output and "docs/floors.md" in result.output, \
+        result.output
+    assert "Traceback" not in result.output and not (tmp_path / "out").exists()
