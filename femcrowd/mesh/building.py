@@ -5,7 +5,8 @@ A building plan is a TOML file with ``[[floors]]`` (each a floor plan of docs/pl
 its ``head`` segment on the outline of the ``upper`` one). gmsh meshes every floor in its plane z = elevation and
 every stair as the sloped quadrilateral foot-head; a stair shares the curve of its foot with the lower floor and
 that of its head with the upper one, so the mesh is one connected surface whose nodes carry (x, y, z). Physical
-surfaces: one per floor and per stair, named after them; physical lines: the exits (any floor) and ``wall``.
+surfaces: one per floor and per stair, named after them; physical lines: the exits (any floor), ``wall``, and the
+interior lines ``<stair>_foot`` and ``<stair>_head`` (doors: a capacity, a flow in history.csv).
 """
 
 from collections import defaultdict
@@ -114,6 +115,12 @@ def read_building(file, data, require_exits=False):
             raise r.error(f"floors[{k}].doors", plan["doors"], "interior doors on a floor of a building are not "
                           "supported yet")
     exits = {e[3] for *_, plan in floors for e in plan[3]} - {s[0] for s in stairs}
+    ends = {f"{s[0]}_{side}" for s in stairs for side in ("foot", "head")}
+    for k, (_, _, plan) in enumerate(floors):
+        for m, e in enumerate(plan[3]):
+            if e[3] in ends:
+                raise r.error(f"floors[{k}].exits[{m}].name", e[3], "is the name of a stair's end (the line groups "
+                              "<stair>_foot and <stair>_head): name the exit otherwise")
     if require_exits and not exits:
         raise r.error("floors", names[:len(floors)], "the building has no exit: add an [[floors.exits]] segment on "
                       "the outline of a floor, or give --no-exits")

@@ -171,7 +171,8 @@ def _exit_sizes(exits, exit_curves, size, refine_exits) -> None:
 
 def _building_geometry(floors, stairs) -> tuple:
     """The building in gmsh's geo kernel: each floor's loops at its elevation (split at its exits and at its stair
-    ends), each stair a plane surface through the curves of its foot and head; physical groups as the module says.
+    ends), each stair a plane surface through the curves of its foot and head; physical groups as the module says,
+    and the line groups <stair>_foot and <stair>_head, interior doors (a capacity, a flow column).
     Returns the exits of every floor (stair ends left out) and the curves of each, as _exit_sizes takes them."""
     geo = gmsh.model.geo
     groups, surfaces, all_exits, exit_curves = defaultdict(list), {}, [], defaultdict(list)
@@ -211,6 +212,7 @@ def _building_geometry(floors, stairs) -> tuple:
             loop = [-line for line in loop[::-1]]   # counter-clockwise in plan, as the floors' triangles
         surfaces[name] = geo.addPlaneSurface([geo.addCurveLoop(loop)])
         groups["wall"] += sides
+        groups[f"{name}_foot"], groups[f"{name}_head"] = [abs(foot)], [abs(head)]   # interior lines: doors
     geo.synchronize()
     for name, curves in groups.items():
         gmsh.model.addPhysicalGroup(1, curves, name=name)

@@ -212,3 +212,22 @@ def test_what_a_building_cannot_run_yet_is_refused_in_one_line(tmp_path, setting
     assert result.exit_code == 2 and f": {key} = " in result.output and "docs/floors.md" in result.output, \
         result.output
     assert "Traceback" not in result.output and not (tmp_path / "out").exists()
+
+
+def test_a_stair_head_takes_a_capacity_like_a_door(tmp_path):
+    """The stair's ends are interior line groups (<stair>_head, <stair>_foot): boundary.capacity caps the flow onto
+    the stair at c |head| (Colombo, Goatin 2007, as for a door), so the 4 people of the upper floor take at least
+    4 / (0.2 x 2) = 10 s to pass it, and pass it all."""
+    corridor(tmp_path, 0.5)
+    crowd = WALK.replace('density = "0.2 * (x >= 1) * (x <= 2)"', "regions = { upper = 0.5 }")
+    (tmp_path / "case.toml").write_text(crowd + "[boundary.capacity]\nstair_head = 0.2\n")
+    h = Simulation(load_case(tmp_path)).run().history
+    assert h["mass"][0] == pytest.approx(4.0, rel=1e-12)
+    assert h["flow_stair_head"].max() <= 0.4 * (1 + 1e-12)
+    assert np.sum(h["flow_stair_head"] * h["dt"]) == pytest.approx(4.0, rel=1e-9)   # every person passed once
+    at_capacity = h["flow_stair_head"] >= 0.4 * (1 - 1e-9)
+    assert np.sum(h["dt"][at_capacity]) > 8.0
+    # the head meters the stair: at most the flow 0.4 / s walking at 0.65 m/s over 2 m, 0.31 persons/m^2 on its
+    # 10 m^2 (all 4 people were on it at once without the capacity)
+    assert 2.9 < h["on_stair"].max() <= 0.4 / (0.65 * 2) * 10 * (1 + 1e-3)
+    assert np.abs(h["mass"] + h["evacuated"] - 4.0).max() <= 1e-13
