@@ -99,7 +99,9 @@ def test_no_mass_stays_behind_a_wedge(transport):
 def test_every_cell_of_the_shipped_meshes_drains(mesh):
     """The property on every shipped plan with exits, for the shortest route and the route choice on a crowd: every
     cell that reaches an exit through the mesh has a path of upwind flows to one, and none points into a wall."""
-    exits = [g for g in load_domain(MESHES / mesh).groups if g != "wall" and not g.startswith("entrance")]
+    plan = load_domain(MESHES / mesh)
+    exits = [g for g, facets in plan.groups.items() if g != "wall" and not g.startswith("entrance")
+             and np.all(plan.f2t[1, facets] < 0)]   # not the interior line groups (a building's stair ends)
     if not exits:
         pytest.skip("a plan without exits")
     domain = load_domain(MESHES / mesh, exits)
