@@ -33,6 +33,7 @@ from ..errors import InputError
 from ..files import make_directory, replaced, save_figure
 from ..mesh import Boundary, file_checksum, load_domain
 from .canvas import CMAPS, PRESSURE_TITLE, Canvas, bounds, nice_top, pv
+from .levels import Levels
 from .measurements import measurement_plots
 
 log = logging.getLogger("femcrowd.plot")
@@ -68,7 +69,8 @@ def floor_plan(run):
     schedule = {name: spans for name, spans in boundary.get("open", {}).items() if name in domain.exit_group}
     floor = pv.PolyData.from_regular_faces(np.column_stack([domain.points, np.zeros(len(domain.points))]),
                                            domain.triangles)
-    return Boundary(domain, schedule), floor
+    levels = Levels(domain) if domain.z is not None else None
+    return Boundary(domain, schedule), floor if levels is None else levels.cells(floor), levels
 
 
 class FloorPlan:
@@ -78,7 +80,7 @@ class FloorPlan:
         plan = floor_plan(run)
         stem = "solution" if "solution" in run.frames else "discs"
         first = read(run, stem, 0)
-        self.boundary = None
+        self.boundary = self.levels = None
         if plan is None:
             if stem == "solution":
                 edges = first.extract_feature_edges(boundary_edges=True, feature_edges=False,
@@ -88,8 +90,8 @@ class FloorPlan:
                 self.walls = np.zeros((0, 2, 2))
             self.floor = first if stem == "solution" else None
         else:
-            self.boundary, self.floor = plan
-            self.walls = self.boundary.at(0.0).segments("wall")
+            self.boundary, self.floor, self.levels = plan
+            self.walls = self._segments(self.boundary.at(0.0), "wall")
         walls, exits, _, _ = self.doors(0.0)
         points = np.concatenate([walls.reshape(-1, 2), exits.reshape(-1, 2)])
         if not len(points):
@@ -104,9 +106,21 @@ class FloorPlan:
             return self.walls, np.zeros((0, 2, 2)), [], []
         doors, d = self.boundary.at(t), self.boundary.domain
         closed = [name for name in doors.names if name not in doors.open]
-        labels = [(name if name in doors.open else f"{name} (closed)", d.midpoint[f].mean(axis=0),
+        labels = [(name if name in doors.open else f"{name} (closed)", self._point(f, d.midpoint[f].mean(axis=0)),
                    d.normal[f].mean(axis=0)) for name, f in d.exit_group.items()]
-        return doors.segments("wall"), doors.segments("exit"), labels, closed
+        return self._segments(doors, "wall"), self._segments(doors, "exit"), labels, closed
+
+    def frame(self, mesh):
+        """A frame as the pictures draw it: a building's floors side by side (plot/levels.py)."""
+        return mesh if self.levels is None else self.levels.cells(mesh)
+
+    def _segments(self, doors, which):
+        if self.levels is None:
+            return doors.segments(which)
+        return self.levels.segments(doors.wall if which == "wall" else doors.exit)
+
+    def _point(self, facets, xy):
+        return xy if self.levels is None else self.levels.point(facets, xy)
 
     def canvas(self, width):
         walls, exits, labels, _ = self.doors(0.0)
@@ -152,7 +166,7 @@ def pictures(run, plan, times, out):
     written = []
     for stem, series in run.frames.items():
         chosen = frame_index(series, times if times else default_times(run, series), run.directory)
-        frames = [read(run, stem, k) for k in chosen]
+        frames = [plan.frame(read(run, stem, k)) for k in chosen]
         if stem == "solution":
             fields = [f for f in ("density", "pressure") if f in frames[0].cell_data]
             for field in fields:
@@ -239,7 +253,7 @@ def animation(run, plan, out, mp4=False, quiet=True):
     images = []
     clim = _disc_range([read(run, stem, k) for k in chosen]) if stem == "discs" else (0.0, run.rho_max)
     for k in tqdm(chosen, disable=quiet, delay=2.0, desc=f"animation {path.name}", unit="frame"):
-        frame, closed = read(run, stem, k), plan.show(canvas, t[k])
+        frame, closed = plan.frame(read(run, stem, k)), plan.show(canvas, t[k])
         if stem == "solution":
             canvas.show(frame, "density", clim, CMAPS["density"], density_title(counts_people(run.case)))
             canvas.title(f"{run.title}\ndensity at t = {t[k]:.1f} s{closed}")

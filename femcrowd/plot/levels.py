@@ -1,0 +1,55 @@
+"""The floors of a building side by side, for the top views of the pictures (docs/floors.md).
+
+Floors of a building lie above each other in plan: seen from above, the upper floor hides the lower. The
+pictures lay them out left to right by elevation, each shifted along x by the building's width and a gap;
+a stair is drawn with the floor of its head. The triangles are drawn apart (each with its own three points),
+so that a stair's foot may leave the floor below it.
+"""
+
+import numpy as np
+import pyvista as pv
+
+#: the gap between two floors laid side by side, as a fraction of the building's width
+GAP = 0.08
+
+
+class Levels:
+    """The shift along x of every cell and facet of a building's domain, and the views shifted by it."""
+
+    def __init__(self, domain):
+        self.domain = domain
+        t, z = domain.triangles, domain.z
+        pieces = {name: np.asarray(cells) for name, cells in domain.mesh.subdomains.items()}
+        level_z = {name: float(z[t[cells]].max()) for name, cells in pieces.items()}   # a stair: its head
+        floors = sorted({z_ for name, z_ in level_z.items() if np.ptp(z[t[pieces[name]]]) == 0})
+        self.names = [[name for name, cells in pieces.items() if np.ptp(z[t[cells]]) == 0 and level_z[name] == e]
+                      for e in floors]
+        width = float(np.ptp(domain.points[:, 0]))
+        self.step = width * (1 + GAP)
+        level = np.zeros(domain.ncells, int)
+        for name, cells in pieces.items():
+            level[cells] = int(np.argmin(np.abs(np.array(floors) - level_z[name])))
+        self.shift = self.step * level
+
+    def cells(self, mesh: pv.DataSet) -> pv.PolyData:
+        """The triangles of a frame (or of the floor) apart, shifted, at z = 0, with their cell data."""
+        t = self.domain.triangles
+        points = np.asarray(mesh.points)[t].copy()
+        points[..., 0] += self.shift[:, None]
+        points[..., 2] = 0.0
+        faces = np.arange(3 * len(t)).reshape(-1, 3)
+        out = pv.PolyData.from_regular_faces(points.reshape(-1, 3), faces)
+        for name in mesh.cell_data.keys():
+            out.cell_data[name] = np.asarray(mesh.cell_data[name])
+        return out
+
+    def segments(self, mask) -> np.ndarray:
+        """Segments (n, 2, 2) of the facets in `mask`, shifted with their cell."""
+        facets = np.flatnonzero(mask)
+        segments = self.domain.points[self.domain.mesh.facets[:, facets].T].copy()
+        segments[..., 0] += self.shift[self.domain.f2t[0, facets]][:, None]
+        return segments
+
+    def point(self, facets, xy) -> np.ndarray:
+        """A point xy of a group of facets (an exit's label), shifted with the group's first cell."""
+        return xy + [self.shift[self.domain.f2t[0, facets[0]]], 0.0]
