@@ -12,6 +12,8 @@ import math
 import os
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import InputError
 from ..files import make_directory, write_text
 from ..studies.recommended import DOOR_CAPACITY, FLUCTUATION, PUSH, WALLS
@@ -77,6 +79,7 @@ def _case_lines(case_dir, mesh_file, domain) -> list:
     if exits:
         velocity = [('type = "exits"', "U = -speed grad d / |grad d|, d = walking distance to the nearest exit"),
                     (f'speed = {_default("velocity", "speed")}', "m/s: number or expression in x, y"),
+                    *_stair_speeds(domain),
                     ('# speed_law = "weidmann"', "slower in a dense crowd (rho_max in persons/m^2)"),
                     ("# push = 0.2", "with a speed law: a jam still pushes at push x speed"),
                     ('# route = "congestion"', "each place heads for the exit of least time: walk or queue"),
@@ -123,6 +126,17 @@ def _case_lines(case_dir, mesh_file, domain) -> list:
         (f'# radius = {_default("micro", "radius")}', "m, or [min, max] for a polydisperse crowd"),
         f'# seed = {_default("micro", "seed")}',
     ]
+
+
+def _stair_speeds(domain) -> list:
+    """A building's (docs/floors.md) commented velocity.speeds line, naming its stairs (the sloped surface groups);
+    no line for a plane floor plan."""
+    if domain.z is None:
+        return []
+    t, pieces = domain.triangles, domain.mesh.subdomains or {}
+    stairs = [name for name, cells in pieces.items() if np.ptp(domain.z[t[cells]]) > 0]
+    return [(f"# speeds = {{ {', '.join(f'{name} = 0.6' for name in stairs)} }}",
+             "m/s along each stair's slope: give your figure (docs/floors.md)")]
 
 
 def _recommended(lines: list, domain) -> list:

@@ -255,3 +255,15 @@ def test_a_steady_stream_down_the_stair_is_as_dense_as_its_flow_and_speed_make_i
     late = h["time"] >= 20.0
     rate = np.polyfit(h["time"][late], h["evacuated"][late], 1)[0]
     assert rate == pytest.approx(1.0, rel=1e-4)
+
+
+def test_femcrowd_new_names_the_stairs_of_a_building(tmp_path):
+    """The case written for a building offers velocity.speeds for its stairs, commented: the figure is the user's."""
+    result = CliRunner().invoke(main, ["new", str(tmp_path / "case"), "--mesh", str(MESHES / "three_storeys.msh")])
+    assert result.exit_code == 0, result.output
+    text = (tmp_path / "case" / "case.toml").read_text()
+    assert "# speeds = { stair_01 = 0.6, stair_12 = 0.6 }" in text
+    (tmp_path / "case" / "case.toml").write_text(text.replace("# speeds", "speeds"))
+    speed = Simulation(load_case(tmp_path / "case")).model.solver.velocities[0].speed
+    cells = load_domain(MESHES / "three_storeys.msh").mesh.subdomains
+    assert np.all(speed[cells["stair_01"]] == 0.6) and np.all(speed[cells["first"]] == 1.34)
