@@ -66,6 +66,8 @@ MODELS = tuple(VARIANTS)
 #: the variants every test runs with (unless it names its own): all but the route choice, which only the tests of
 #: route choice (10, 11) run
 PLAIN = MODELS[:6]
+#: the density model's columns of PLAIN: the tests the discs cannot run (4: a density; 2, 3: stairs, docs/floors.md)
+MACRO = PLAIN[:4]
 
 
 @dataclass
@@ -183,6 +185,25 @@ def corner(results) -> Verdict:
 
 
 #: test 4: the densities of the corridor (persons/m^2), and how far from Weidmann's speed a measured one may be
+#: RiMEA tests 2 and 3 (JuPedSim's set-up): the stair's length along its slope (m), its speeds up and down (m/s)
+STAIR_LENGTH, STAIR_UP, STAIR_DOWN = 10.0, 0.5, 0.75
+#: the time on the stair within this fraction of STAIR_LENGTH / speed (JuPedSim's runtest_rimea_2.py and _3.py)
+STAIR_TOLERANCE = 0.05
+
+
+def stair_walk(speed):
+    """Tests 2, 3: the judge of one person on the stair at `speed`. The time the person spends on it is the
+    integral of the people on it (history.csv, on_stair) over the run, per person: the mean residence time,
+    which the spreading of the density does not change."""
+    def judge(results) -> Verdict:
+        h = results[0].history
+        on = h["on_stair"]
+        seconds = float(np.sum(0.5 * (on[1:] + on[:-1]) * np.diff(h["time"]))) / people(results[0])
+        expected = STAIR_LENGTH / speed
+        return Verdict("{seconds:.2f} s", {"seconds": seconds}, abs(seconds - expected) <= STAIR_TOLERANCE * expected)
+    return judge
+
+
 DENSITIES = (0.5, 1.0, 2.0, 3.0, 4.0, 5.0)
 WEIDMANN_TOLERANCE = 0.15   # m/s, up to 4 persons/m^2
 
@@ -286,10 +307,17 @@ def bottlenecks(results) -> Verdict:
 TESTS = [
     RimeaTest("1", "speed in a corridor", "one person at 1.33 m/s covers 40 m in 26 s to 34 s",
               ("test01-corridor",), corridor),
+    RimeaTest("2", "walking up a stair", f"one person keeps its speed up a stair {STAIR_LENGTH:g} m long (judged as "
+              f"JuPedSim: the time on the stair within {STAIR_TOLERANCE:.0%} of {STAIR_LENGTH:g} m / {STAIR_UP:g} m/s "
+              f"= {STAIR_LENGTH / STAIR_UP:g} s)", ("test02-stair-up",), stair_walk(STAIR_UP), variants=MACRO),
+    RimeaTest("3", "walking down a stair", f"one person keeps its speed down a stair {STAIR_LENGTH:g} m long (judged "
+              f"as JuPedSim: the time on the stair within {STAIR_TOLERANCE:.0%} of {STAIR_LENGTH:g} m / "
+              f"{STAIR_DOWN:g} m/s = {STAIR_LENGTH / STAIR_DOWN:.3g} s)", ("test03-stair-down",),
+              stair_walk(STAIR_DOWN), variants=MACRO),
     RimeaTest("4", "fundamental diagram", "the speed in a corridor against the density (0.5 to 5 persons/m^2) "
               "as the empirical diagram (judged: falling, within 0.15 m/s of Weidmann 1993 up to 4 persons/m^2)",
               tuple(("test04-fundamental-diagram", {"initial.density": d}) for d in DENSITIES),
-              fundamental_diagram, variants=("macro", "macro-capacity", "macro-pushing", "macro-recommended")),
+              fundamental_diagram, variants=MACRO),
     RimeaTest("6", "movement around a corner", "20 persons go around a left corner without passing through "
               "walls (judged: all leave by the exit; macro: no mass lost, micro: no disc outside)",
               ("test06-corner",), corner),

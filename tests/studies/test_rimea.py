@@ -21,6 +21,17 @@ def test_rimea_test_1_both_models_through_the_command(tmp_path):
     assert row.count("| not run") == len(rimea.VARIANTS) - len(rimea.PLAIN), table   # the route choice: 10, 11
 
 
+def test_rimea_tests_2_and_3_one_person_keeps_its_speed_on_the_stair(tmp_path):
+    """A stair 10 m along its slope (docs/floors.md), one person: 20 s up at 0.5 m/s, 13.3 s down at 0.75 m/s, the
+    time on the stair the mean residence time of the density (on_stair over the run); the discs do not run."""
+    result = CliRunner().invoke(main, ["rimea", "--only", "2", "--only", "3", "--model", "macro",
+                                       "--model", "micro", "--out", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    rows = (tmp_path / "rimea.md").read_text().splitlines()[-2:]
+    assert "| 20.03 s: **pass**" in rows[0] and "| 13.34 s: **pass**" in rows[1], rows
+    assert all(row.count("| not run") == 1 for row in rows), rows
+
+
 def test_crossing_time_interpolates_the_count():
     m = {"time": np.array([0.0, 1.0, 2.0]), "a_count": np.array([0.0, 0.0, 2.0])}
     assert rimea.crossing_time(m, "a", 1.0) == 1.5
@@ -97,8 +108,8 @@ def test_rimea_seeds_give_the_disc_figures_as_ranges(tmp_path):
 
 
 def test_unknown_test_is_refused():
-    result = CliRunner().invoke(main, ["rimea", "--only", "2"])
-    assert result.exit_code == 2 and "no RiMEA test '2'" in result.output
+    result = CliRunner().invoke(main, ["rimea", "--only", "5"])
+    assert result.exit_code == 2 and "no RiMEA test '5'" in result.output
 
 
 @pytest.mark.slow
