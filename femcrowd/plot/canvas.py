@@ -86,6 +86,13 @@ class Canvas:
                                       show_points=False, always_visible=True, justification_horizontal="center",
                                       justification_vertical="bottom")
 
+    def captions(self, points, texts):
+        """Texts centred below points of the plan (the floors of a building under their panels)."""
+        self.plotter.add_point_labels([[x, y - 6 / self.scale, 3e-3 * self.size] for x, y in points], texts,
+                                      font_size=max(10, self.width // 70), text_color=TEXT, shape=None,
+                                      show_points=False, always_visible=True, justification_horizontal="center",
+                                      justification_vertical="top")
+
     def doors(self, walls, exits, labels):
         """Draw walls (grey) and exits (green), replacing those drawn before unless the labels are the same: closed
         doors are walls (their facets are among ``walls``); labels [(name, midpoint, outward normal)] name the

@@ -24,6 +24,7 @@ class Levels:
         floors = sorted({z_ for name, z_ in level_z.items() if np.ptp(z[t[pieces[name]]]) == 0})
         self.names = [[name for name, cells in pieces.items() if np.ptp(z[t[cells]]) == 0 and level_z[name] == e]
                       for e in floors]
+        self.elevations = floors
         width = float(np.ptp(domain.points[:, 0]))
         self.step = width * (1 + GAP)
         level = np.zeros(domain.ncells, int)
@@ -49,6 +50,12 @@ class Levels:
         segments = self.domain.points[self.domain.mesh.facets[:, facets].T].copy()
         segments[..., 0] += self.shift[self.domain.f2t[0, facets]][:, None]
         return segments
+
+    def captions(self):
+        """The point below the middle of each floor's panel and its caption: its name(s) and elevation."""
+        (x0, y0), x1 = self.domain.points.min(axis=0), self.domain.points[:, 0].max()
+        points = [((x0 + x1) / 2 + k * self.step, y0) for k in range(len(self.names))]
+        return points, [f"{', '.join(names)} (z = {z:g} m)" for names, z in zip(self.names, self.elevations)]
 
     def point(self, facets, xy) -> np.ndarray:
         """A point xy of a group of facets (an exit's label), shifted with the group's first cell."""

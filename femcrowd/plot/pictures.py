@@ -124,7 +124,10 @@ class FloorPlan:
 
     def canvas(self, width):
         walls, exits, labels, _ = self.doors(0.0)
-        return Canvas(self.bounds, walls, exits, labels, self.floor, width)
+        canvas = Canvas(self.bounds, walls, exits, labels, self.floor, width)
+        if self.levels is not None:
+            canvas.captions(*self.levels.captions())
+        return canvas
 
     def show(self, canvas, t):
         """Draw the doors of time t on the canvas; ' (closed: names)' for the title."""

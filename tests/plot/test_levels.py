@@ -25,6 +25,9 @@ def test_the_floors_of_the_three_storey_building_lie_side_by_side_each_stair_wit
     assert (x.min(), x.max()) == pytest.approx((0.0, 2 * levels.step + 10.0))
     # the areas are the plan's (a top view), each triangle moved as a whole
     assert floor.compute_cell_sizes().cell_data["Area"].sum() == pytest.approx(60 - 6 + 60 - 12 + 60 - 6 + 2 * 6)
+    points, texts = levels.captions()   # each floor named under its panel
+    assert texts == ["ground (z = 0 m)", "first (z = 3 m)", "second (z = 6 m)"]
+    assert np.allclose(points, [(5 + k * levels.step, 0.0) for k in range(3)])
     walls = levels.segments(domain.f2t[1] < 0)
     assert walls[..., 0].max() == pytest.approx(2 * levels.step + 10.0)
 
