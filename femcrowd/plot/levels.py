@@ -32,21 +32,25 @@ class Levels:
             level[cells] = int(np.argmin(np.abs(np.array(floors) - level_z[name])))
         self.shift = self.step * level
 
-    def cells(self, mesh: pv.DataSet) -> pv.PolyData:
-        """The triangles of a frame (or of the floor) apart, shifted, at z = 0, with their cell data."""
-        t = self.domain.triangles
-        points = np.asarray(mesh.points)[t].copy()
+    def corners(self) -> np.ndarray:
+        """(3 n, 2): the corners of the n triangles apart, shifted; triangle k is corners 3 k, 3 k + 1, 3 k + 2."""
+        points = self.domain.points[self.domain.triangles].copy()
         points[..., 0] += self.shift[:, None]
-        points[..., 2] = 0.0
-        faces = np.arange(3 * len(t)).reshape(-1, 3)
-        out = pv.PolyData.from_regular_faces(points.reshape(-1, 3), faces)
+        return points.reshape(-1, 2)
+
+    def cells(self, mesh: pv.DataSet) -> pv.PolyData:
+        """The triangles of a frame (or of the floor) apart, shifted, at z = 0, with their cell data (the frame's
+        points are the domain's, at their elevations)."""
+        points = np.column_stack([self.corners(), np.zeros(3 * self.domain.ncells)])
+        faces = np.arange(3 * self.domain.ncells).reshape(-1, 3)
+        out = pv.PolyData.from_regular_faces(points, faces)
         for name in mesh.cell_data.keys():
             out.cell_data[name] = np.asarray(mesh.cell_data[name])
         return out
 
-    def segments(self, mask) -> np.ndarray:
-        """Segments (n, 2, 2) of the facets in `mask`, shifted with their cell."""
-        facets = np.flatnonzero(mask)
+    def segments(self, facets) -> np.ndarray:
+        """Segments (n, 2, 2) of the facets (a mask or indices), shifted with their cell."""
+        facets = np.flatnonzero(facets) if np.asarray(facets).dtype == bool else np.asarray(facets)
         segments = self.domain.points[self.domain.mesh.facets[:, facets].T].copy()
         segments[..., 0] += self.shift[self.domain.f2t[0, facets]][:, None]
         return segments

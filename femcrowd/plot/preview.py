@@ -24,6 +24,7 @@ from ..driver.populations import disc_populations, initial_densities
 from ..driver.scene import build_scene, initial_discs
 from ..files import make_directory, save_figure
 from .canvas import CMAPS, EXIT, FLOOR, OBSTACLE, POPULATION_CMAPS, TEXT, WALL
+from .levels import Levels
 
 CLOSED, SOURCE, MEASURE = "#d7301f", "#2b6cb0", "#7b3294"
 
@@ -39,8 +40,31 @@ def schedule_text(door) -> str:
     return "open " + ", ".join(_span(a, b) for a, b in door.spans) if door.spans else "closed"
 
 
-def _segments(domain, facets):
-    return domain.points[domain.mesh.facets[:, facets].T]
+class _Plan:
+    """What the preview draws the scene on: the floor plan, or a building's floors side by side (plot/levels.py)."""
+
+    def __init__(self, domain):
+        self.domain = domain
+        self.levels = Levels(domain) if domain.z is not None else None
+
+    def triangulation(self, mask=None) -> Triangulation:
+        if self.levels is None:
+            return Triangulation(*self.domain.points.T, self.domain.triangles, mask=mask)
+        return Triangulation(*self.levels.corners().T, np.arange(3 * self.domain.ncells).reshape(-1, 3), mask=mask)
+
+    def segments(self, facets):
+        if self.levels is None:
+            return self.domain.points[self.domain.mesh.facets[:, facets].T]
+        return self.levels.segments(facets)
+
+    def middle(self, facets):
+        """The middle of a group of facets (where its label goes)."""
+        middle = self.domain.midpoint[facets].mean(axis=0)
+        return middle if self.levels is None else self.levels.point(facets, middle)
+
+    def bounds(self):
+        points = self.domain.points if self.levels is None else self.levels.corners()
+        return points.min(axis=0), points.max(axis=0)
 
 
 def _label(ax, text, middle, normal, colour, scale):
@@ -52,7 +76,7 @@ def _label(ax, text, middle, normal, colour, scale):
                 bbox=dict(facecolor="white", alpha=0.8, edgecolor="none", pad=1.5), zorder=6)
 
 
-def crowd(scene):
+def crowd(scene, plan):
     """The initial crowd: (people per population {name: count}, draw(ax, fig) -> legend handles), in the case's
     unit."""
     case, domain = scene.case, scene.domain
@@ -78,7 +102,7 @@ def crowd(scene):
 
     def draw(ax, fig):
         total = rho.sum(axis=0) * rho_max
-        tri = Triangulation(*domain.points.T, domain.triangles, mask=total <= 0)
+        tri = plan.triangulation(mask=total <= 0)
         if (total > 0).any():
             art = ax.tripcolor(tri, facecolors=total, cmap=CMAPS["density"], vmin=0, vmax=rho_max, zorder=2)
             fig.colorbar(art, ax=ax, shrink=0.8, label=density_title(counts_people(case.config)))
@@ -91,41 +115,45 @@ def scene_figure(case):
     it, nothing run."""
     scene = build_scene(case)
     domain, boundary = scene.domain, scene.boundary
-    counts, draw = crowd(scene)
-    (x0, y0), (x1, y1) = domain.points.min(axis=0), domain.points.max(axis=0)
+    plan = _Plan(domain)
+    counts, draw = crowd(scene, plan)
+    (x0, y0), (x1, y1) = plan.bounds()
     size = max(x1 - x0, y1 - y0)
     fig = Figure(figsize=(10, float(np.clip(9 * (y1 - y0) / max(x1 - x0, 1e-12) + 1.6, 4, 12))),
                  layout="constrained")
     ax = fig.subplots()
     ax.set_facecolor(OBSTACLE)   # holes (obstacles) show it; the floor is drawn over
-    ax.tripcolor(Triangulation(*domain.points.T, domain.triangles), np.zeros(len(domain.triangles)),
+    ax.tripcolor(plan.triangulation(), np.zeros(len(domain.triangles)),
                  cmap=matplotlib.colors.ListedColormap([FLOOR]), zorder=1)
     legend = draw(ax, fig)
     exits = np.zeros(len(domain.length), bool)
     for f in domain.exit_group.values():
         exits[f] = True
-    ax.add_collection(LineCollection(_segments(domain, ~domain.interior & ~exits), colors=WALL, linewidths=2,
+    ax.add_collection(LineCollection(plan.segments(~domain.interior & ~exits), colors=WALL, linewidths=2,
                                      capstyle="round", zorder=4))
     legend.append(Line2D([], [], color=WALL, lw=2, label="wall"))
+    for point, text in zip(*plan.levels.captions()) if plan.levels is not None else ():   # each floor named
+        ax.annotate(text, point, color=TEXT, fontsize=9, ha="center", va="top", xytext=(0, -4),
+                    textcoords="offset points", zorder=6)
     rho_max, people = case["model"]["rho_max"], counts_people(case.config)
     for door in boundary.doors:
         closed = door.exit and not door.is_open(0.0)
         colour = CLOSED if closed else EXIT if door.exit else "#e08214"
-        ax.add_collection(LineCollection(_segments(domain, door.facets), colors=colour, linewidths=4,
+        ax.add_collection(LineCollection(plan.segments(door.facets), colors=colour, linewidths=4,
                                          linestyles="--" if closed else "-", zorder=5))
         text = [door.name, schedule_text(door)] if door.exit else [f"{door.name} (interior door)"]
         if door.capped:
             text.append(f"capacity {door.capacity * rho_max:g} {'persons' if people else 'rho_max'}/(m s)")
         f = door.facets
-        _label(ax, "\n".join(text), domain.midpoint[f].mean(axis=0), domain.normal[f].mean(axis=0), colour, size)
+        _label(ax, "\n".join(text), plan.middle(f), domain.normal[f].mean(axis=0), colour, size)
     legend += [Line2D([], [], color=colour, lw=4, ls=style, label=f"exit, {state} at t = 0")
                for colour, style, state in ((EXIT, "-", "open"), (CLOSED, "--", "closed"))
                if any(door.exit and door.is_open(0.0) == (state == "open") for door in boundary.doors)]
     for source in scene.sources:
         f = source.facets
-        ax.add_collection(LineCollection(_segments(domain, f), colors=SOURCE, linewidths=4, zorder=5))
+        ax.add_collection(LineCollection(plan.segments(f), colors=SOURCE, linewidths=4, zorder=5))
         _label(ax, f"{source.boundary}: source {source.label('persons' if people else 'rho_max')}, "
-                   f"{_span(source.start, source.end)}", domain.midpoint[f].mean(axis=0),
+                   f"{_span(source.start, source.end)}", plan.middle(f),
                domain.normal[f].mean(axis=0), SOURCE, size)
     if scene.sources:
         legend.append(Line2D([], [], color=SOURCE, lw=4, label="source (arrivals)"))

@@ -8,6 +8,7 @@ from femcrowd import load_case, run
 from femcrowd.mesh import load_domain
 from femcrowd.plot import plot_run
 from femcrowd.plot.levels import GAP, Levels
+from femcrowd.plot.preview import scene_figure
 
 from ..support import CASES, MESHES
 
@@ -37,3 +38,11 @@ def test_the_pictures_of_a_building_run(tmp_path):
     written = plot_run(tmp_path / "out", animate=False)
     names = {p.name for p in written}
     assert {"density_t0000.png", "density_t0004.png", "curves.png"} <= names, names
+
+
+def test_the_preview_of_a_building_draws_each_floor_beside_the_others():
+    fig, people = scene_figure(load_case(CASES / "three-storeys"))
+    ax = fig.axes[0]
+    texts = [t.get_text() for t in ax.texts]
+    assert {"ground (z = 0 m)", "first (z = 3 m)", "second (z = 6 m)"} <= set(texts)
+    assert ax.get_xlim()[1] > 2 * 10 * (1 + GAP) + 10 and people == pytest.approx(0.6 * (48 + 54))
