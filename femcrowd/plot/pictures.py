@@ -53,8 +53,8 @@ def read(run, stem, k):
 
 
 def floor_plan(run):
-    """The run's doors over time (a Boundary with the case's [boundary.open]) and its floor (triangles,
-    PolyData) from the run's mesh, or None when it cannot be found."""
+    """The run's doors over time (a Boundary with the case's [boundary.open] and [boundary.capacity]) and its floor
+    (triangles, PolyData) from the run's mesh, or None when it cannot be found."""
     mesh, case = run.summary.get("mesh", {}), run.case
     file = Path(mesh.get("file", ""))
     if not mesh.get("file") or not file.is_file():
@@ -66,9 +66,11 @@ def floor_plan(run):
     boundary = case.get("boundary", {})
     domain = load_domain(file, boundary.get("exits", []), case.get("mesh", {}).get("refine", 0))
     schedule = {name: spans for name, spans in boundary.get("open", {}).items() if name in domain.exit_group}
+    rho_max = case.get("model", {}).get("rho_max", 1.0)
+    capacity = {name: value / rho_max for name, value in boundary.get("capacity", {}).items() if name in domain.groups}
     floor = pv.PolyData.from_regular_faces(np.column_stack([domain.points, np.zeros(len(domain.points))]),
                                            domain.triangles)
-    return Boundary(domain, schedule), floor
+    return Boundary(domain, schedule, capacity), floor
 
 
 class FloorPlan:
