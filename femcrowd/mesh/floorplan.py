@@ -82,10 +82,17 @@ def build_mesh(geometry_file, out=None, refine_exits=None, gmsh_options=None, ca
         size, loops, circles, exits, tol, doors = read_toml_plan(geometry_file, require_exits)
     if refine_exits is not None:
         refine_exits = PlanReader(geometry_file).size("refine_exits", refine_exits)
+    return mesh_plan((size, loops, circles, exits, tol, doors), out, geometry_file.stem, refine_exits, gmsh_options)
+
+
+def mesh_plan(plan, out, name="plan", refine_exits=None, gmsh_options=None) -> pathlib.Path:
+    """Mesh a checked floor plan (what plan.check_plan returns) and write it to `out` as MSH 2.2, whole or not at
+    all; ``build_mesh`` of a plan file, and of a plan given in memory (femcrowd.api)."""
+    size, loops, circles, exits, tol, doors = plan
     gmsh.initialize(readConfigFiles=False, interruptible=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add(geometry_file.stem)
+        gmsh.model.add(name)
         exit_curves = _geometry(loops, circles, exits, doors, tol)
         _exit_sizes(exits, exit_curves, size, refine_exits)
         options = {"Mesh.MeshSizeMax": size, "Mesh.MeshSizeFromPoints": 0, "Mesh.MeshSizeExtendFromBoundary": 0,

@@ -47,20 +47,19 @@ def draw_doors(a, plan, t=0.0, names=None):
     a.set(xlabel="x (m)", ylabel="y (m)")
 
 
-def cell_map(fig, a, frame, values, cmap, norm, label):
-    """A field per triangle of a frame (meshio) on the axes a, with its colour bar; returns the bar."""
-    art = a.tripcolor(frame.points[:, 0], frame.points[:, 1], frame.cells_dict["triangle"], facecolors=values,
-                      cmap=cmap, norm=norm)
+def cell_map(fig, a, points, triangles, values, cmap, norm, label):
+    """A field per triangle (points (n, 2+), triangles (m, 3)) on the axes a, with its colour bar; returns the bar."""
+    art = a.tripcolor(points[:, 0], points[:, 1], triangles, facecolors=values, cmap=cmap, norm=norm)
     return fig.colorbar(art, ax=a, shrink=0.8, label=label)
 
 
-def fruin_map(fig, a, frame, density):
-    """Fruin's level of service of the cell densities (persons/m^2) of a frame, with the bar of the levels."""
+def fruin_map(fig, a, points, triangles, density):
+    """Fruin's level of service of the cell densities (persons/m^2), with the bar of the levels."""
     from matplotlib.colors import BoundaryNorm, ListedColormap
 
     bounds = (0.0, *FRUIN, max(2 * FRUIN[-1], float(np.max(density, initial=0.0))))
-    bar = cell_map(fig, a, frame, density, ListedColormap(FRUIN_COLOURS), BoundaryNorm(bounds, len(FRUIN_COLOURS)),
-                   "level of service: density (persons/m^2)")
+    bar = cell_map(fig, a, points, triangles, density, ListedColormap(FRUIN_COLOURS),
+                   BoundaryNorm(bounds, len(FRUIN_COLOURS)), "level of service: density (persons/m^2)")
     bar.set_ticks([(lo + hi) / 2 for lo, hi in zip(bounds[:-1], bounds[1:])])
     bar.ax.set_yticklabels([f"{level} ({lo:g}-{hi:g})" if level != "F" else f"{level} (> {lo:g})"
                             for level, lo, hi in zip("ABCDEF", bounds[:-1], bounds[1:])])

@@ -80,7 +80,7 @@ def level_of_service(run, plan, path):
     frame = run.frame("solution", -1)
     fig = Figure(figsize=(9, 6), layout="constrained")
     a = fig.subplots()
-    fruin_map(fig, a, frame, np.asarray(frame.cell_data["max_density"][0]).ravel())
+    fruin_map(fig, a, frame.points, frame.cells_dict["triangle"], np.asarray(frame.cell_data["max_density"][0]).ravel())
     draw_doors(a, plan)
     fig.suptitle(run.title, fontsize=10)
     a.set(title="level of service (Fruin 1971, walkways) of the maximum density over the run")

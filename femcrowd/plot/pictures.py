@@ -98,6 +98,16 @@ class FloorPlan:
             points = np.asarray(first.points)[:, :2]
         self.bounds = bounds(points)
 
+    @classmethod
+    def of(cls, boundary):
+        """The floor plan of a scene's doors over time (a Boundary), with no run directory (femcrowd.api)."""
+        plan = cls.__new__(cls)
+        plan.boundary, plan.floor = boundary, None
+        plan.walls = boundary.at(0.0).segments("wall")
+        walls, exits, _, _ = plan.doors(0.0)
+        plan.bounds = bounds(np.concatenate([walls.reshape(-1, 2), exits.reshape(-1, 2)]))
+        return plan
+
     def doors(self, t):
         """(walls, exits, labels, closed) at time t: the segments of the walls (closed exits among them) and of
         the open exits, a label [(name, midpoint, outward normal)] per exit ("name (closed)" when closed), the

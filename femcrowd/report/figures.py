@@ -1,6 +1,6 @@
-"""The figures of a run's report (matplotlib, no window): the scene with its doors, the N-t curves, the density
-and level-of-service maps at chosen times (macro) or the discs (micro); each returned as a PNG data URI for a
-page with no outside file (``data_uri``)."""
+"""The figures of a report and of the Python API (matplotlib, no window): a map of the floor plan with the density,
+its level of service or the discs, and the doors; the N-t curves; each as a PNG data URI for a page with no outside
+file (``data_uri``)."""
 
 import base64
 import io
@@ -25,45 +25,55 @@ def door_names(doors, rows) -> dict:
     """'exit: 1.2 m, 1.9 p/(m s)': the label of each door on the plan."""
     names = {}
     for door in doors:
-        row = rows[door.name]
-        cap = f", {row['capacity']:.3g} p/(m s)" if row["capacity"] is not None else ""
-        names[door.name] = f"{door.name}: {door.width:.3g} m{cap}"
+        capacity = rows.get(door.name, {}).get("capacity")
+        names[door.name] = f"{door.name}: {door.width:.3g} m" + (f", {capacity:.3g} p/(m s)" if capacity else "")
     return names
 
 
-def frame_figure(run, plan, k, title, names=None, level_of_service=False):
-    """Frame k of the run on its floor plan: the density (or Fruin's level of service of it) of a macro frame, the
-    discs of a micro one, with the doors of its time."""
+def map_figure(plan, t, title, case, cells=None, discs=None, names=None, level_of_service=False):
+    """The floor plan (plot/pictures.py FloorPlan) at time t with its doors, and on it the density of the cells
+    (points, triangles, density in the case's unit), Fruin's level of service of it, or the discs (xy, radius)."""
     from matplotlib.collections import EllipseCollection
     from matplotlib.colors import Normalize
 
-    stem = "solution" if "solution" in run.frames else "discs"
-    t, frame = run.frames[stem][k][0], run.frame(stem, k)
     (x0, x1), (y0, y1) = plan.bounds   # the height of the plan at 6.5 in wide, with room for the bar and legend
     fig = Figure(figsize=(8, float(np.clip(6.5 * (y1 - y0) / max(x1 - x0, 1e-9) + 1.5, 3, 9))), layout="compressed")
     a = fig.subplots()
-    if stem == "solution":
-        density = np.asarray(frame.cell_data["density"][0]).ravel()
+    if cells is not None:
+        points, triangles, density = cells
         if level_of_service:
-            fruin_map(fig, a, frame, density)
+            fruin_map(fig, a, points, triangles, density)
         else:
-            cell_map(fig, a, frame, density, "YlOrRd", Normalize(0.0, run.rho_max),
-                     density_title(counts_people(run.case)))
-    else:
-        radius = np.asarray(frame.point_data.get("radius", np.zeros(len(frame.points))), float)
-        a.add_collection(EllipseCollection(2 * radius, 2 * radius, np.zeros_like(radius), units="xy",
-                                           offsets=frame.points[:, :2], offset_transform=a.transData,
-                                           facecolors="#d7301f", edgecolors="k", linewidths=0.3))
+            cell_map(fig, a, points, triangles, density, "YlOrRd",
+                     Normalize(0.0, case.get("model", {}).get("rho_max", 1.0)), density_title(counts_people(case)))
+    if discs is not None:
+        xy, radius = discs
+        a.add_collection(EllipseCollection(2 * radius, 2 * radius, np.zeros_like(radius), units="xy", offsets=xy,
+                                           offset_transform=a.transData, facecolors="#d7301f", edgecolors="k",
+                                           linewidths=0.3))
     draw_doors(a, plan, t, names)
     a.set_title(f"{title} at t = {t:.4g} s")
     return fig
 
 
-def nt_figure(run, curves, shares):
+def frame_figure(run, plan, k, title, names=None, level_of_service=False):
+    """Frame k of a run directory (driver/reading.py RunDirectory) as a map_figure."""
+    stem = "solution" if "solution" in run.frames else "discs"
+    t, frame = run.frames[stem][k][0], run.frame(stem, k)
+    if stem == "solution":
+        cells, discs = (frame.points, frame.cells_dict["triangle"],
+                        np.asarray(frame.cell_data["density"][0]).ravel()), None
+    else:
+        radius = np.asarray(frame.point_data.get("radius", np.zeros(len(frame.points))), float)
+        cells, discs = None, (np.asarray(frame.points)[:, :2], radius)
+    return map_figure(plan, t, title, run.case, cells, discs, names, level_of_service)
+
+
+def nt_figure(history, case, curves, shares):
     """The N-t curves: people out in all and through each door against time; t50, t90, t99 marked."""
-    h = run.history
+    h = history
     t, micro = h["time"], "count" in h
-    unit = "people" if micro else crowd_unit(counts_people(run.case))
+    unit = "people" if micro else crowd_unit(counts_people(case))
     fig = Figure(figsize=(9, 4.2), layout="constrained")
     a = fig.subplots()
     a.plot(t, h["evacuated"], color="k", lw=2.5, label="out (all exits)")

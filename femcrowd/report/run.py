@@ -61,7 +61,7 @@ def run_context(run, times=None) -> dict:
         "remaining_by": remaining.get("by_reason", {}) if remaining else {},
         "remaining_populations": remaining.get("per_population", {}) if remaining else {},
         "plan": data_uri(frame_figure(run, plan, 0, "the scene: initial crowd", names)),
-        "nt": data_uri(nt_figure(run, door_curves(h, doors), shares)) if h else None,
+        "nt": data_uri(nt_figure(h, case, door_curves(h, doors), shares)) if h else None,
         "maps": maps, "service": service,
         "left": data_uri(frame_figure(run, plan, -1, "left inside", names))
         if remaining and remaining.get("reason") != "evacuated" else None,
