@@ -10,6 +10,7 @@ Definitions (docs/tools.md, "Report"):
   ``flow_<door>`` summed over the steps (flow x dt);
 - peak flow: the largest mean flow over time bins of PEAK_BIN seconds (at least two steps);
 - mean flow: the people between the first and the last MEAN_SHARE of them, over the time they took;
+- counting lines ([[measure.lines]], measurements.csv): the same, of their signed count ``<line>_count``;
 - time at capacity: the seconds of the steps whose flow is the door's capacity x width (to 1e-9, as the run's
   ``steps_at_capacity``);
 - queue at a door (macro): the people in the connected set of cells at a density of at least QUEUE_DENSITY x
@@ -61,29 +62,46 @@ def door_curves(history, doors) -> dict:
     return curves
 
 
+def flow_numbers(time, curve) -> dict:
+    """People through (the curve's last value), mean and peak flow of a cumulative count over time."""
+    dt = np.diff(time, prepend=time[0])
+    width = max(PEAK_BIN, 2 * float(np.median(dt[1:]))) if len(time) > 2 else PEAK_BIN
+    through = float(curve[-1]) if len(curve) else np.nan
+    row = {"through": through, "mean_flow": np.nan, "peak_flow": np.nan}
+    if len(time) > 1:
+        row["peak_flow"] = float(np.max(binned_rate(time, curve, width)[1]))
+        if through > 0:
+            first, last = np.interp([MEAN_SHARE * through, (1 - MEAN_SHARE) * through], curve, time)
+            row["mean_flow"] = (1 - 2 * MEAN_SHARE) * through / (last - first) if last > first else np.nan
+    return row
+
+
 def door_numbers(history, doors, rho_max) -> dict:
     """Per door (mesh/boundary.py Door) its row of the report: kind, width, capacity (persons/(m s), None
     without), people through, mean and peak flow (people/s), seconds at capacity (None without a capacity)."""
     t, rows = history["time"], {}
     dt = np.diff(t, prepend=t[0])
-    width = max(PEAK_BIN, 2 * float(np.median(dt[1:]))) if len(t) > 1 else PEAK_BIN
     curves = door_curves(history, doors)
     for door in doors:
         capacity = door.capacity * rho_max if door.capped else None
         row = {"kind": "exit" if door.exit else "interior door", "width": door.width, "capacity": capacity,
                "through": np.nan, "mean_flow": np.nan, "peak_flow": np.nan, "at_capacity": None}
-        if door.name in curves and len(t) > 1:
-            curve = curves[door.name]
-            row["through"] = through = float(curve[-1])
-            row["peak_flow"] = float(np.max(binned_rate(t, curve, width)[1]))
-            if through > 0:
-                first, last = np.interp([MEAN_SHARE * through, (1 - MEAN_SHARE) * through], curve, t)
-                row["mean_flow"] = (1 - 2 * MEAN_SHARE) * through / (last - first) if last > first else np.nan
+        if door.name in curves:
+            row.update(flow_numbers(t, curves[door.name]))
         if capacity is not None and f"flow_{door.name}" in history:
             full = history[f"flow_{door.name}"] >= (1 - 1e-9) * capacity * door.width
             row["at_capacity"] = float(np.sum(dt[full & (history[f"flow_{door.name}"] > 0)]))
         rows[door.name] = row
     return rows
+
+
+def line_numbers(measurements, lengths) -> dict:
+    """Per counting line of measurements.csv (``<line>_count``, the signed count left to right) its row of the
+    door table, as "line <name>": people through (net), mean and peak flow; lengths: {line: length (m)}."""
+    t = measurements["time"]
+    return {f"line {name}": {"kind": "counting line", "width": lengths.get(name, np.nan), "capacity": None,
+                   **flow_numbers(t, measurements[f"{name}_count"]), "at_capacity": None}
+            for name in (c[: -len("_count")] for c in measurements if c.endswith("_count"))}
 
 
 def cell_adjacency(domain) -> sp.csr_matrix:

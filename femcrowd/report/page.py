@@ -16,8 +16,9 @@ from .study import is_study, study_context
 DOOR_NOTE = (f"Through: people who passed the door. Mean flow: from the first to the last {100 * MEAN_SHARE:g} % of "
              f"them. Peak flow: the largest mean over bins of {PEAK_BIN:g} s. Time at capacity: the seconds the flow "
              f"was the capacity x width. Longest queue: the most people in the cells at {QUEUE_DENSITY:g} x rho_max "
-             "or more connected to the door, over the frames (macro). -: not measured (no capacity; micro runs "
-             "record no flow per door).")
+             "or more connected to the door, over the frames (macro). Counting lines ([[measure.lines]]): their net "
+             "count, left to right. -: not measured (no capacity; micro runs record no flow per door: draw counting "
+             "lines).")
 
 
 def number(value) -> str:

@@ -4,10 +4,11 @@ headline times, the N-t curves, the doors, who is left, the maps at the chosen t
 import numpy as np
 
 from ..case.units import counts_people, people_unit
+from ..driver.reading import read_history
 from ..driver.remaining import remaining_text
 from ..plot.pictures import FloorPlan, default_times, frame_index
 from .figures import data_uri, door_names, frame_figure, nt_figure
-from .numbers import cell_adjacency, door_curves, door_numbers, queues, share_times
+from .numbers import cell_adjacency, door_curves, door_numbers, line_numbers, queues, share_times
 
 
 def longest_queues(run, plan) -> dict:
@@ -33,6 +34,10 @@ def run_context(run, times=None) -> dict:
     rows = door_numbers(h, doors, run.rho_max) if h else {}
     for name, (people, t) in longest_queues(run, plan).items():
         rows[name].update(queue=people, queue_time=t)
+    if (run.directory / "measurements.csv").is_file():
+        lines = case.get("measure", {}).get("lines", [])
+        lengths = {line["name"]: float(np.hypot(*np.subtract(line["to"], line["from"]))) for line in lines}
+        rows.update(line_numbers(read_history(run.directory / "measurements.csv"), lengths))
     shares = share_times(h) if h else {}
     names = door_names(doors, rows)
     series = run.frames[stem]

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from femcrowd.mesh import Door
-from femcrowd.report.numbers import door_numbers, queues, share_times
+from femcrowd.report.numbers import door_numbers, line_numbers, queues, share_times
 from femcrowd.report.study import spread, study_context
 
 from ..support import unit_square
@@ -55,6 +55,17 @@ def test_an_interior_door_counts_its_flow():
     rows = door_numbers({"time": t, "flow_ab": flow}, [Door("ab", np.array([0]), False, 1.0, 1.5)], rho_max=1.0)
     assert rows["ab"]["through"] == pytest.approx(6.0) and rows["ab"]["kind"] == "interior door"
     assert rows["ab"]["at_capacity"] == pytest.approx(4.0)
+
+
+def test_a_counting_line_is_a_row_of_the_door_table():
+    """A line crossed at 3 per s for 2 s, then 1 back: net 5 through, peak 3, its length its width."""
+    t = np.linspace(0.0, 4.0, 41)
+    count = np.interp(t, [0, 1, 3, 3.5, 4], [0, 0, 6, 5, 5])
+    rows = line_numbers({"time": t, "gate_flow": np.gradient(count, t), "gate_count": count}, {"gate": 2.5})
+    assert list(rows) == ["line gate"]
+    row = rows["line gate"]
+    assert (row["kind"], row["width"], row["capacity"], row["at_capacity"]) == ("counting line", 2.5, None, None)
+    assert row["through"] == pytest.approx(5.0) and row["peak_flow"] == pytest.approx(3.0)
 
 
 def test_a_queue_is_the_dense_crowd_connected_to_its_door():
