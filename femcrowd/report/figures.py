@@ -36,8 +36,8 @@ def map_figure(plan, t, title, case, cells=None, discs=None, names=None, level_o
     from matplotlib.collections import EllipseCollection
     from matplotlib.colors import Normalize
 
-    (x0, x1), (y0, y1) = plan.bounds   # the height of the plan at 6.5 in wide, with room for the bar and legend
-    fig = Figure(figsize=(8, float(np.clip(6.5 * (y1 - y0) / max(x1 - x0, 1e-9) + 1.5, 3, 9))), layout="compressed")
+    (x0, x1), (y0, y1) = plan.bounds   # the height of the plan at 5.5 in wide, with room for the bar and legend
+    fig = Figure(figsize=(8, float(np.clip(5.5 * (y1 - y0) / max(x1 - x0, 1e-9) + 1.3, 3, 9))), layout="compressed")
     a = fig.subplots()
     if cells is not None:
         points, triangles, density = cells
