@@ -11,6 +11,8 @@ from click.testing import CliRunner
 from femcrowd.cli import main
 from femcrowd.driver.reading import read_history
 
+from ..support import CASES
+
 
 class Page(HTMLParser):
     """The images (src), links (href) and table rows (cell texts) of a page."""
@@ -116,3 +118,22 @@ def test_the_page_goes_where_out_says(report_page):
     assert result.exit_code == 0, result.output
     assert result.output == f"wrote {out}\n" and Page(out.read_text()).sections[-1] == "maps"
     assert sorted(p.name for p in report_page.parent.iterdir()) == before
+
+
+def test_the_report_of_a_disc_run(tmp_path):
+    """A micro run: the discs on the maps (no level of service: no density field), its exit's row without flows
+    (the disc model records none per door), the people counted in discs."""
+    out = tmp_path / "discs"
+    result = CliRunner().invoke(main, ["run", str(CASES / "narrow-door-micro"), "--out", str(out), "-q",
+                                       "--set", "time.end=1", "--set", "output.every=0.5"])
+    assert result.exit_code == 0, result.output
+    result = CliRunner().invoke(main, ["report", str(out)])
+    assert result.exit_code == 0, result.output
+    page = Page((out / "report.html").read_text())
+    h = read_history(out / "history.csv")
+    assert "Density and level of service" not in (out / "report.html").read_text()
+    assert len(page.images) >= 2 + 4 and all(src.startswith("data:image/png;base64,") for src in page.images)
+    row = door_row(page, "exit")
+    assert row["kind"] == "exit" and row["through (people)"] == "-" and row["longest queue (people)"] == "-"
+    people = next(r for r in page.rows if r[:1] == ["people at t = 0"])
+    assert people[1] == f"{h['count'][0]:.4g} people"
