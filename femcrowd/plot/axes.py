@@ -6,6 +6,7 @@ import numpy as np
 from .canvas import EXIT, WALL
 
 INTERIOR = "#e6550d"    # a door with a capacity between two rooms
+ENTRANCE = "#3182bd"    # a boundary group people arrive through ([[sources]])
 
 #: Fruin's levels of service for walkways (Fruin 1971): upper densities (persons/m^2) of A..E, F above, colours
 FRUIN = (0.31, 0.43, 0.72, 1.08, 2.17)
@@ -17,9 +18,10 @@ def _side(n, low, high):
     return low if n < -0.5 else high if n > 0.5 else "center"
 
 
-def draw_doors(a, plan, t=0.0, names=None):
+def draw_doors(a, plan, t=0.0, names=None, entrances=()):
     """The walls and open exits of time t (plot/pictures.py FloorPlan) on the axes a, each exit labelled with its name
-    or names[name]; the doors between rooms that have a capacity as well (in INTERIOR); a legend below."""
+    or names[name]; the doors between rooms that have a capacity (in INTERIOR) and the boundary groups named in
+    `entrances` (in ENTRANCE) as well; a legend below."""
     from matplotlib.collections import LineCollection
     from matplotlib.lines import Line2D
 
@@ -40,6 +42,15 @@ def draw_doors(a, plan, t=0.0, names=None):
                    color=INTERIOR, fontsize=9, fontweight="bold")
     if interior:
         handles.append(Line2D([], [], color=INTERIOR, lw=4, label="door with a capacity"))
+    domain = plan.boundary.domain if plan.boundary is not None else None
+    entrances = [name for name in dict.fromkeys(entrances) if domain is not None and name in domain.groups]
+    for name in entrances:
+        facets = domain.groups[name]
+        a.add_collection(LineCollection(domain.points[domain.mesh.facets[:, facets].T], colors=ENTRANCE, linewidths=4))
+        a.annotate(names.get(name, name), domain.midpoint[facets].mean(axis=0), xytext=(5, 5),
+                   textcoords="offset points", color=ENTRANCE, fontsize=9, fontweight="bold")
+    if entrances:
+        handles.append(Line2D([], [], color=ENTRANCE, lw=4, label="entrance (source)"))
     a.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=len(handles), frameon=False)
     (x0, x1), (y0, y1) = plan.bounds
     margin = 0.03 * max(x1 - x0, y1 - y0)

@@ -51,7 +51,7 @@ def map_figure(plan, t, title, case, cells=None, discs=None, names=None, level_o
         a.add_collection(EllipseCollection(2 * radius, 2 * radius, np.zeros_like(radius), units="xy", offsets=xy,
                                            offset_transform=a.transData, facecolors="#d7301f", edgecolors="k",
                                            linewidths=0.3))
-    draw_doors(a, plan, t, names)
+    draw_doors(a, plan, t, names, [source["boundary"] for source in case.get("sources", [])])
     a.set_title(f"{title} at t = {t:.4g} s")
     return fig
 
