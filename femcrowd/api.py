@@ -85,30 +85,32 @@ class Scene:
 
     def run(self, every=None, **settings) -> "Run":
         """Run the scene (``model={"type": "micro"}`` for discs) without files; the state is kept every `every`
-        seconds (default: output.every) for the maps."""
+        seconds (default: output.every, the frame times of `femcrowd run`; steps land on these times) for the
+        maps."""
         return Run(self, self.case(**settings), every)
 
-    def plot(self):
-        """The plan at t = 0 with the initial crowd and the doors (a matplotlib Figure)."""
-        return self.run(time={"end": 0.0}).plot_map(0.0, title="the scene: initial crowd")
+    def plot(self, **settings):
+        """The plan at t = 0 with the initial crowd and the doors (a matplotlib Figure), before any run."""
+        return Run(self, self.case(**settings), run=False).plot_map(0.0, title="the scene: initial crowd")
 
 
 class Run:
     """A finished run of a Scene: its history, door numbers and the states kept at its frame times."""
 
-    def __init__(self, scene, case, every=None):
+    def __init__(self, scene, case, every=None, run=True):
         from .plot.pictures import FloorPlan
 
         self.scene, self.case = scene, case
         self.simulation = Simulation(case)
         model = self.simulation.model
         every = every or case["output"]["every"]
-        self.times, self._states = [], []
+        self.times, self._states, self.result = [], [], None
         self._keep(model)
-        stops = np.arange(1, int(np.floor(case["time"]["end"] / every + 1e-9)) + 1) * every
-        self.result = self.simulation.run(stops=tuple(stops), on_stop=lambda recorder: self._keep(model))
-        if self.times[-1] < model.t:
-            self._keep(model)
+        if run:   # run=False: the set-up alone, its initial state (Scene.plot)
+            stops = np.arange(1, int(np.floor(case["time"]["end"] / every + 1e-9)) + 1) * every
+            self.result = self.simulation.run(stops=tuple(stops), on_stop=lambda recorder: self._keep(model))
+            if self.times[-1] < model.t:
+                self._keep(model)
         self.boundary = self.simulation.scene.boundary
         self.plan = FloorPlan.of(self.boundary)
 
@@ -178,7 +180,7 @@ class Run:
         domain, state = self.simulation.scene.domain, self._states[k]
         cells, discs = ((domain.points, domain.triangles, state), None) if isinstance(state, np.ndarray) else \
             (None, state)
-        names = door_names(self.boundary.doors, self.doors.to_dict(orient="index"))
+        names = door_names(self.boundary.doors, self.case["model"]["rho_max"])
         title = title or ("level of service" if level_of_service else "density" if cells else "discs")
         return map_figure(self.plan, self.times[k], title, self.case.config, cells, discs, names, level_of_service)
 

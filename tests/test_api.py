@@ -91,3 +91,10 @@ def test_bad_geometry_names_its_key_and_the_mesh_goes_with_the_scene():
     del scene
     gc.collect()
     assert not mesh.exists() and not mesh.parent.exists()
+
+
+def test_the_scene_before_any_run(narrow_door):
+    """Scene.plot: the set-up alone (no step taken), the plan with its exit named with its width."""
+    fig = narrow_door.plot()
+    assert isinstance(fig, Figure) and "exit: 0.8 m" in {t.get_text() for t in fig.axes[0].texts}
+    assert fig.axes[0].get_title() == "the scene: initial crowd at t = 0 s"

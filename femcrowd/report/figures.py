@@ -21,13 +21,10 @@ def data_uri(fig) -> str:
     return "data:image/png;base64," + base64.b64encode(buffer.getvalue()).decode("ascii")
 
 
-def door_names(doors, rows) -> dict:
-    """'exit: 1.2 m, 1.9 p/(m s)': the label of each door on the plan."""
-    names = {}
-    for door in doors:
-        capacity = rows.get(door.name, {}).get("capacity")
-        names[door.name] = f"{door.name}: {door.width:.3g} m" + (f", {capacity:.3g} p/(m s)" if capacity else "")
-    return names
+def door_names(doors, rho_max) -> dict:
+    """'exit: 1.2 m, 1.9 p/(m s)': the label of each door (mesh/boundary.py Door) on the plan."""
+    return {door.name: f"{door.name}: {door.width:.3g} m"
+            + (f", {door.capacity * rho_max:.3g} p/(m s)" if door.capped else "") for door in doors}
 
 
 def map_figure(plan, t, title, case, cells=None, discs=None, names=None, level_of_service=False):

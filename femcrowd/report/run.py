@@ -39,7 +39,7 @@ def run_context(run, times=None) -> dict:
         lengths = {line["name"]: float(np.hypot(*np.subtract(line["to"], line["from"]))) for line in lines}
         rows.update(line_numbers(read_history(run.directory / "measurements.csv"), lengths))
     shares = share_times(h) if h else {}
-    names = door_names(doors, rows)
+    names = door_names(doors, run.rho_max)
     series = run.frames[stem]
     chosen = frame_index(series, times if times else default_times(run, series), run.directory)
     maps = [data_uri(frame_figure(run, plan, k, "density" if stem == "solution" else "discs", names))
