@@ -137,3 +137,12 @@ def test_the_report_of_a_disc_run(tmp_path):
     assert row["kind"] == "exit" and row["through (people)"] == "-" and row["longest queue (people)"] == "-"
     people = next(r for r in page.rows if r[:1] == ["people at t = 0"])
     assert people[1] == f"{h['count'][0]:.4g} people"
+
+
+def test_the_values_of_a_case_are_escaped():
+    """A title (user input) with markup is shown as text, never run: no script on the page."""
+    from femcrowd.report.page import render
+
+    text = render({"title": "<script>alert(1)</script> & co", "directory": "d", "run": None, "study": None})
+    assert "<script>" not in text and "&lt;script&gt;alert(1)&lt;/script&gt; &amp; co" in text
+    assert Page(text).links == []
