@@ -55,6 +55,11 @@ def run_context(run, times=None) -> dict:
         "version": summary.get("femcrowd", "unknown"), "status": summary.get("status", "no summary.json"),
         "model": case.get("model", {}).get("type", "macro"), "rho_max": run.rho_max,
         "mesh": summary.get("mesh", {}),
+        "checks": {name: summary[key] for name, key in (("relative mass error", "mass_error"),
+                                                          ("least density", "min_density_ever"),
+                                                          ("largest density", "max_density_ever"),
+                                                          ("least pressure", "min_pressure_ever"))
+                   if summary.get(key) is not None},
         "people": float(h["count" if "count" in h else "mass"][0]) if h else None,
         "arrived": float(h["inflow"][-1]) if "inflow" in h else None,
         "populations": {name: value.get("initial_mass", value.get("initial_count"))

@@ -81,6 +81,9 @@ def test_the_door_numbers_agree_with_the_run(capped_run, report_page):
     seconds = float(np.sum(np.diff(h["time"], prepend=0.0)[full]))
     assert float(row["time at capacity (s)"]) == pytest.approx(seconds, rel=1e-3)
     assert 0 < seconds <= h["time"][-1]
+    checks = {r[0]: r[1] for r in page.rows if len(r) == 2}   # the invariants of the run, as summary.json has them
+    assert checks["relative mass error"] == f"{summary['mass_error']:.4g}" and float(checks["least density"]) >= 0
+    assert float(checks["largest density"]) <= 5.4 * (1 + 1e-12)
     queue = float(row["longest queue (people)"].split()[0])   # a queue forms, smaller than the crowd
     assert 0 < queue < h["mass"][0]
 
