@@ -21,16 +21,12 @@ import numpy as np
 
 from .case.loading import case_from_dict
 from .driver.run import Simulation
+from .mesh.cad import polygon_plan
 from .mesh.floorplan import mesh_plan
 from .mesh.plan import PlanReader, check_plan
 
 #: the name of the in-memory scene in error messages (there is no file)
 SOURCE = "<femcrowd.api scene>"
-
-
-def _ring(coords) -> list:
-    points = [[float(x), float(y)] for x, y, *_ in coords]
-    return points[:-1] if len(points) > 1 and points[0] == points[-1] else points
 
 
 def _segment(name, line) -> dict:
@@ -48,10 +44,7 @@ def plan_from_shapely(walkable, exits, doors=None, obstacles=(), walls=(), size=
     area = shapely.difference(walkable, shapely.union_all(list(obstacles))) if obstacles else walkable
     if area.geom_type != "Polygon":
         raise ValueError(f"the walkable area less the obstacles is a {area.geom_type}, not one polygon")
-    return {"size": size, "outer": {"points": _ring(area.exterior.coords)},
-            "holes": [{"points": _ring(ring.coords)} for ring in area.interiors],
-            "walls": [{"points": [list(c[:2]) for c in line.coords]} for line in walls],
-            "exits": [_segment(name, line) for name, line in exits.items()],
+    return {"size": size, **polygon_plan(area, walls), "exits": [_segment(name, line) for name, line in exits.items()],
             "doors": [_segment(name, line) for name, line in (doors or {}).items()]}
 
 
