@@ -268,8 +268,9 @@ def animation(run, plan, out, mp4=False, quiet=True):
     return path
 
 
-def _rate(time, cumulative, width):
-    """Mean rate of a cumulative curve over time bins of about ``width``: (bin centres, rate)."""
+def binned_rate(time, cumulative, width):
+    """Mean rate of a cumulative curve (0 at t = 0) over time bins of about ``width`` from t = 0: (bin centres,
+    rate); the curves of a run and the peak flows of its report (report/numbers.py)."""
     time, cumulative = np.r_[0.0, time], np.r_[0.0, cumulative]
     edges = np.linspace(0.0, time[-1], max(1, int(round(time[-1] / width))) + 1)
     values = np.interp(edges, time, cumulative)
@@ -327,14 +328,14 @@ def curves_figure(run):
     exits = [c for c in h if c.startswith("evacuated_") and c[len("evacuated_"):] not in populations]
     width = max(t_show / 80, 2 * float(np.median(np.diff(np.r_[0.0, t]))))  # bins of a few steps at least
     for column in exits:
-        a.plot(*_rate(t, h[column], width), drawstyle="steps-mid", lw=3.5, alpha=0.8, zorder=3,
+        a.plot(*binned_rate(t, h[column], width), drawstyle="steps-mid", lw=3.5, alpha=0.8, zorder=3,
                label=column[len('evacuated_'):])
     for k, name in enumerate(p for p in run.case.get("populations", {}) if f"evacuated_{p}" in h):
         # thin and dashed: the exits show beneath
-        a.plot(*_rate(t, h[f"evacuated_{name}"], width), drawstyle="steps-mid", lw=1.3, ls="--", zorder=4,
+        a.plot(*binned_rate(t, h[f"evacuated_{name}"], width), drawstyle="steps-mid", lw=1.3, ls="--", zorder=4,
                color=f"C{len(exits) + k}", label=f"population {name}")
     if len(exits) != 1:
-        a.plot(*_rate(t, h["evacuated"], width), drawstyle="steps-mid", color="k", lw=1.2,
+        a.plot(*binned_rate(t, h["evacuated"], width), drawstyle="steps-mid", color="k", lw=1.2,
                ls="--" if exits else "-", label="all exits")
     a.set(ylabel=f"flow rate ({unit}/s)", title="exit flow rate")
     a.legend()

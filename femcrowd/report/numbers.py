@@ -22,6 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from ..plot.pictures import binned_rate
 from ..studies.evacuation import evacuation_times
 
 SHARES = (0.5, 0.9, 0.99)
@@ -41,13 +42,6 @@ def share_times(history) -> dict:
     total = inside[0] + (history["inflow"][-1] if "inflow" in history else 0.0)
     times = evacuation_times(t[1:], out[1:], total, SHARES) if total > 0 else [np.nan] * len(SHARES)
     return {f"t{100 * share:g}": value for share, value in zip(SHARES, times)}
-
-
-def binned_rate(time, cumulative, width) -> tuple:
-    """The mean rate of a cumulative curve over bins of about ``width`` s: (bin centres, rates)."""
-    edges = np.linspace(time[0], time[-1], max(1, int(round((time[-1] - time[0]) / width))) + 1)
-    values = np.interp(edges, time, cumulative)
-    return 0.5 * (edges[1:] + edges[:-1]), np.diff(values) / np.diff(edges)
 
 
 def door_curves(history, doors) -> dict:
