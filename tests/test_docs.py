@@ -2,8 +2,10 @@
 repository, document by document and in the order shown (later commands may use what earlier ones wrote).
 
 Commands are the lines of the ```bash blocks (a trailing backslash continues a line); a ```python block
-runs as one program. A block after a line `<!-- slow -->` runs only in the slow tier (`pytest -m slow`):
-the long studies and the install commands. ```text blocks (usage synopses, printed output) are not run.
+runs as one program, and a ```python block after a line `<!-- continued -->` continues the one before it (the
+cells of a notebook: the two run as one program, where the later stands). A block after a line `<!-- slow -->`
+runs only in the slow tier (`pytest -m slow`): the long studies and the install commands. ```text blocks (usage
+synopses, printed output) are not run.
 """
 
 import os
@@ -27,7 +29,7 @@ IGNORE = shutil.ignore_patterns(".git", ".venv", "__pycache__", "*.egg-info", ".
 def command_blocks(path):
     """[(line number of the fence, [commands], slow)] of the ```bash and ```python blocks of a markdown file."""
     blocks, lines = [], path.read_text().splitlines()
-    k = 0
+    k, cell = 0, (None, [])   # the last python block: its fence's line, its program
     while k < len(lines):
         if lines[k].strip() in ("```bash", "```python"):
             slow = k > 0 and lines[k - 1].strip() == "<!-- slow -->"
@@ -36,7 +38,11 @@ def command_blocks(path):
             while lines[k].strip() != "```":
                 body.append(lines[k])
                 k += 1
+            if python and lines[start - 2].strip() == "<!-- continued -->" and blocks and blocks[-1][0] == cell[0]:
+                blocks.pop()   # the program so far runs here, with this cell
+                body = cell[1] + body
             if python:
+                cell = (start, body)
                 commands = [f"python -c {shlex.quote(chr(10).join(body))}"]
             else:
                 text = re.sub(r"\\\n\s*", " ", "\n".join(body))
@@ -90,3 +96,13 @@ def test_the_parser_finds_blocks_and_their_tier(tmp_path):
     assert command_blocks(page) == [(2, ["femcrowd run a  --set b=1  # comment"], False),
                                     (8, ["femcrowd stress"], True),
                                     (14, ["python -c 'import femcrowd\nprint(1)'"], False)]
+
+
+def test_a_continued_python_block_runs_with_the_one_before(tmp_path):
+    """Notebook cells: the second block runs the first's code and its own, as one program; the first alone is not
+    run; a block after a bash block does not continue across it."""
+    page = tmp_path / "page.md"
+    page.write_text("```python\nx = 1\n```\n<!-- continued -->\n```python\nprint(x)\n```\n"
+                    "```bash\nls\n```\n<!-- continued -->\n```python\ny = 2\n```\n")
+    assert command_blocks(page) == [(5, ["python -c 'x = 1\nprint(x)'"], False), (8, ["ls"], False),
+                                    (12, ["python -c 'y = 2'"], False)]

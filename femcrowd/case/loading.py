@@ -102,7 +102,14 @@ def load_case(case_dir, overrides=()) -> Case:
         items = [parse_override(item, file) for item in overrides]
     for keys, value in items:
         _apply_override(raw, keys, value, file)
-    return Case(_resolve(raw, SCHEMA, file, ""), file.resolve())
+    return case_from_dict(raw, file)
+
+
+def case_from_dict(raw: dict, file) -> Case:
+    """A case given as the tables of a case file (femcrowd.api: a case in memory), checked and its defaults
+    filled as a case file's; `file` names it in errors, its directory resolves the relative paths."""
+    file = Path(file)
+    return Case(_resolve(copy.deepcopy(raw), SCHEMA, file, ""), file.resolve())
 
 
 def parse_override(item: str, file="--set") -> tuple[list, object]:

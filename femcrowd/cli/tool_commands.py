@@ -1,4 +1,4 @@
-"""``femcrowd plot``, ``mesh``, ``new`` and ``info``: looking at results, making scenes."""
+"""``femcrowd plot``, ``report``, ``mesh``, ``new`` and ``info``: looking at results, making scenes."""
 
 import shlex
 from pathlib import Path
@@ -334,3 +334,31 @@ def format_info(info):
               f"{1e3 * e['congested_step_seconds']:.3g} ms per congested step, "
               f"{1e3 * e['frame_seconds']:.3g} ms per frame"]
     return "\n".join(lines)
+
+
+@main.command()
+@click.argument("outdir", type=click.Path())
+@click.option("-t", "--times", "times", multiple=True, metavar="T[,T...]",
+              help="Times (s) of the density and level-of-service maps, comma-separated or repeated; the nearest "
+                   "frames are used. Default: 4 evenly spaced times until 95% of the crowd has left.")
+@click.option("-o", "--out", type=click.Path(), help="The HTML file (default: OUTDIR/report.html).")
+def report(outdir, times, out):
+    """One self-contained HTML page of the run (or study) in OUTDIR, to hand in.
+
+    Of a run: the scene (plan with the doors, their widths and capacities; the
+    people; the settings and femcrowd's version), the evacuation time and the
+    times at which 50, 90 and 99 % are out, the N-t curves, per door the people
+    through, the mean and peak flow, the time at capacity and the longest queue,
+    who is left and why, the density and level-of-service maps. Of a study
+    (sweep, convergence, evacuation-times): the headline numbers of each run,
+    their spread and change, the study's tables and figures. The figures are
+    embedded: the page needs no other file and no network.
+
+    \b
+    Examples:
+      femcrowd report cases/room/output
+      femcrowd report /tmp/room --times 0,5,10 -o /tmp/room.html
+    """
+    from ..report import report as write_report
+
+    click.echo(f"wrote {write_report(outdir, _times(times) or None, out)}")

@@ -158,13 +158,19 @@ def _from_wkt(file, text, factor):
                          f"as its holes), found {len(polygons)}")
     polygon = shapely.affinity.scale(polygons[0], factor, factor, origin=(0, 0))
     lines = [shapely.affinity.scale(g, factor, factor, origin=(0, 0)) for g in parts if g.geom_type == "LineString"]
-    data = {"outer": {"points": _ring(polygon.exterior.coords)},
-            "holes": [{"points": _ring(ring.coords)} for ring in polygon.interiors], "exits": [],
-            "walls": [{"points": [list(c[:2]) for c in line.coords]} for line in lines]}
+    data = polygon_plan(polygon, lines)
     origins = {"outer": "POLYGON exterior", **{f"holes[{k}]": f"POLYGON hole {k + 1}"
                                                for k in range(len(data["holes"]))},
                **{f"walls[{k}]": f"LINESTRING {k + 1}" for k in range(len(lines))}}
     return data, origins
+
+
+def polygon_plan(polygon, walls=()) -> dict:
+    """The tables of a floor plan (docs/plans.md: outer, holes, walls; no exit yet) of a shapely Polygon (holes:
+    the obstacles) and of internal walls (LineStrings); a WKT plan's, and femcrowd.api's."""
+    return {"outer": {"points": _ring(polygon.exterior.coords)},
+            "holes": [{"points": _ring(ring.coords)} for ring in polygon.interiors], "exits": [],
+            "walls": [{"points": [list(c[:2]) for c in line.coords]} for line in walls]}
 
 
 def _ring(coords) -> list:

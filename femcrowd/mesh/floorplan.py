@@ -73,28 +73,33 @@ def build_mesh(geometry_file, out=None, refine_exits=None, gmsh_options=None, ca
                          f"{out / geometry_file.with_suffix('.msh').name})")
     if out.suffix.lower() != ".msh":
         raise InputError(out, None, None, "femcrowd mesh writes gmsh .msh files only: give -o a name ending in .msh")
-    building = None
     if geometry_file.suffix.lower() in (".dxf", ".wkt"):
-        size, loops, circles, exits, tol, doors = read_plan(geometry_file, **(cad or {}), require_exits=require_exits)
+        plan = read_plan(geometry_file, **(cad or {}), require_exits=require_exits)
     else:
         unused = [f"--{k.replace('_', '-')}" for k in ("units", "wall_thickness") if (cad or {}).get(k) is not None]
         if unused:
             raise InputError(geometry_file, unused[0], cad[unused[0][2:].replace("-", "_")],
                              "for DXF and WKT plans only: a TOML plan is in metres, its walls have a 'thickness'")
-        building = read_toml_building(geometry_file, require_exits)
-        if building is None:
-            size, loops, circles, exits, tol, doors = read_toml_plan(geometry_file, require_exits)
+        plan = read_toml_building(geometry_file, require_exits) or read_toml_plan(geometry_file, require_exits)
     if refine_exits is not None:
         refine_exits = PlanReader(geometry_file).size("refine_exits", refine_exits)
+    return mesh_plan(plan, out, geometry_file.stem, refine_exits, gmsh_options)
+
+
+def mesh_plan(plan, out, name="plan", refine_exits=None, gmsh_options=None) -> pathlib.Path:
+    """Mesh a checked floor plan (what plan.check_plan returns, or a building: read_toml_building) and write it
+    to `out` as MSH 2.2, whole or not at all; ``build_mesh`` of a plan file, and of a plan given in memory
+    (femcrowd.api)."""
     gmsh.initialize(readConfigFiles=False, interruptible=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add(geometry_file.stem)
-        if building is None:
-            _exit_sizes(exits, _geometry(loops, circles, exits, doors, tol), size, refine_exits)
-        else:
-            size, floors, stairs = building
+        gmsh.model.add(name)
+        if len(plan) == 3:   # a building: (size, floors, stairs)
+            size, floors, stairs = plan
             _exit_sizes(*_building_geometry(floors, stairs), size, refine_exits)
+        else:
+            size, loops, circles, exits, tol, doors = plan
+            _exit_sizes(exits, _geometry(loops, circles, exits, doors, tol), size, refine_exits)
         options = {"Mesh.MeshSizeMax": size, "Mesh.MeshSizeFromPoints": 0, "Mesh.MeshSizeExtendFromBoundary": 0,
                    "Mesh.Algorithm": 6, "Mesh.Smoothing": 5, "Mesh.MshFileVersion": 2.2, "Mesh.Binary": 0}
         for option, value in {**options, **(gmsh_options or {})}.items():

@@ -12,10 +12,7 @@ import numpy as np
 
 from ..driver.reading import read_history
 from ..files import save_figure
-
-#: Fruin's levels of service for walkways: upper densities (persons/m^2) of A..E, F above, and their colours
-FRUIN = (0.31, 0.43, 0.72, 1.08, 2.17)
-FRUIN_COLOURS = ("#1a9850", "#91cf60", "#d9ef8b", "#fee08b", "#fc8d59", "#d73027")
+from .axes import draw_doors, fruin_map
 
 
 def measurement_plots(run, out, plan) -> list:
@@ -78,39 +75,13 @@ def areas(run, m, path):
 
 
 def level_of_service(run, plan, path):
-    from matplotlib.collections import LineCollection
-    from matplotlib.colors import BoundaryNorm, ListedColormap
     from matplotlib.figure import Figure
-    from matplotlib.lines import Line2D
-
-    from .canvas import EXIT, WALL
 
     frame = run.frame("solution", -1)
-    triangles = frame.cells_dict["triangle"]
-    density = np.asarray(frame.cell_data["max_density"][0]).ravel()
     fig = Figure(figsize=(9, 6), layout="constrained")
     a = fig.subplots()
-    top = max(2 * FRUIN[-1], float(density.max()))
-    norm = BoundaryNorm((0.0, *FRUIN, top), len(FRUIN_COLOURS))
-    art = a.tripcolor(frame.points[:, 0], frame.points[:, 1], triangles, facecolors=density,
-                      cmap=ListedColormap(FRUIN_COLOURS), norm=norm)
-    bounds = (0.0, *FRUIN, top)
-    bar = fig.colorbar(art, ax=a, shrink=0.8, ticks=[(lo + hi) / 2 for lo, hi in zip(bounds[:-1], bounds[1:])],
-                       label="level: maximum density (persons/m^2)")
-    bar.ax.set_yticklabels([f"{level} ({lo:g}-{hi:g})" if level != "F" else f"{level} (> {lo:g})"
-                            for level, lo, hi in zip("ABCDEF", bounds[:-1], bounds[1:])])
-    walls, exits, labels, _ = plan.doors(0.0)
-    a.add_collection(LineCollection(walls, colors=WALL, linewidths=2, capstyle="round"))
-    a.add_collection(LineCollection(exits, colors=EXIT, linewidths=4))
-    for name, middle, normal in labels:
-        side = lambda n, low, high: low if n < -0.5 else high if n > 0.5 else "center"  # noqa: E731 (outward)
-        a.annotate(name, middle, xytext=(6 * normal[0], 6 * normal[1]), textcoords="offset points", color=EXIT,
-                   fontsize=9, fontweight="bold", ha=side(normal[0], "right", "left"),
-                   va=side(normal[1], "top", "bottom"), annotation_clip=False)
-    a.legend(handles=[Line2D([], [], color=WALL, lw=2, label="wall"), Line2D([], [], color=EXIT, lw=4, label="exit")],
-             loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2, frameon=False)
-    a.set_aspect("equal")
+    fruin_map(fig, a, frame.points, frame.cells_dict["triangle"], np.asarray(frame.cell_data["max_density"][0]).ravel())
+    draw_doors(a, plan)
     fig.suptitle(run.title, fontsize=10)
-    a.set(title="level of service (Fruin 1971, walkways) of the maximum density over the run",
-          xlabel="x (m)", ylabel="y (m)")
+    a.set(title="level of service (Fruin 1971, walkways) of the maximum density over the run")
     return save_figure(fig, path)

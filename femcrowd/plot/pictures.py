@@ -54,8 +54,8 @@ def read(run, stem, k):
 
 
 def floor_plan(run):
-    """The run's doors over time (a Boundary with the case's [boundary.open]) and its floor (triangles,
-    PolyData) from the run's mesh, or None when it cannot be found."""
+    """The run's doors over time (a Boundary with the case's [boundary.open] and [boundary.capacity]) and its floor
+    (triangles, PolyData) from the run's mesh, or None when it cannot be found."""
     mesh, case = run.summary.get("mesh", {}), run.case
     file = Path(mesh.get("file", ""))
     if not mesh.get("file") or not file.is_file():
@@ -67,10 +67,12 @@ def floor_plan(run):
     boundary = case.get("boundary", {})
     domain = load_domain(file, boundary.get("exits", []), case.get("mesh", {}).get("refine", 0))
     schedule = {name: spans for name, spans in boundary.get("open", {}).items() if name in domain.exit_group}
+    rho_max = case.get("model", {}).get("rho_max", 1.0)
+    capacity = {name: value / rho_max for name, value in boundary.get("capacity", {}).items() if name in domain.groups}
     floor = pv.PolyData.from_regular_faces(np.column_stack([domain.points, np.zeros(len(domain.points))]),
                                            domain.triangles)
     levels = Levels(domain) if domain.z is not None else None
-    return Boundary(domain, schedule), floor if levels is None else levels.cells(floor), levels
+    return Boundary(domain, schedule, capacity), floor if levels is None else levels.cells(floor), levels
 
 
 class FloorPlan:
@@ -97,6 +99,16 @@ class FloorPlan:
         if not len(points):
             points = np.asarray(first.points)[:, :2]
         self.bounds = bounds(points)
+
+    @classmethod
+    def of(cls, boundary):
+        """The floor plan of a scene's doors over time (a Boundary), with no run directory (femcrowd.api)."""
+        plan = cls.__new__(cls)
+        plan.boundary, plan.floor, plan.levels = boundary, None, None
+        plan.walls = boundary.at(0.0).segments("wall")
+        walls, exits, _, _ = plan.doors(0.0)
+        plan.bounds = bounds(np.concatenate([walls.reshape(-1, 2), exits.reshape(-1, 2)]))
+        return plan
 
     def doors(self, t):
         """(walls, exits, labels, closed) at time t: the segments of the walls (closed exits among them) and of
@@ -273,8 +285,9 @@ def animation(run, plan, out, mp4=False, quiet=True):
     return path
 
 
-def _rate(time, cumulative, width):
-    """Mean rate of a cumulative curve over time bins of about ``width``: (bin centres, rate)."""
+def binned_rate(time, cumulative, width):
+    """Mean rate of a cumulative curve (0 at t = 0) over time bins of about ``width`` from t = 0: (bin centres,
+    rate); the curves of a run and the peak flows of its report (report/numbers.py)."""
     time, cumulative = np.r_[0.0, time], np.r_[0.0, cumulative]
     edges = np.linspace(0.0, time[-1], max(1, int(round(time[-1] / width))) + 1)
     values = np.interp(edges, time, cumulative)
@@ -332,14 +345,14 @@ def curves_figure(run):
     exits = [c for c in h if c.startswith("evacuated_") and c[len("evacuated_"):] not in populations]
     width = max(t_show / 80, 2 * float(np.median(np.diff(np.r_[0.0, t]))))  # bins of a few steps at least
     for column in exits:
-        a.plot(*_rate(t, h[column], width), drawstyle="steps-mid", lw=3.5, alpha=0.8, zorder=3,
+        a.plot(*binned_rate(t, h[column], width), drawstyle="steps-mid", lw=3.5, alpha=0.8, zorder=3,
                label=column[len('evacuated_'):])
     for k, name in enumerate(p for p in run.case.get("populations", {}) if f"evacuated_{p}" in h):
         # thin and dashed: the exits show beneath
-        a.plot(*_rate(t, h[f"evacuated_{name}"], width), drawstyle="steps-mid", lw=1.3, ls="--", zorder=4,
+        a.plot(*binned_rate(t, h[f"evacuated_{name}"], width), drawstyle="steps-mid", lw=1.3, ls="--", zorder=4,
                color=f"C{len(exits) + k}", label=f"population {name}")
     if len(exits) != 1:
-        a.plot(*_rate(t, h["evacuated"], width), drawstyle="steps-mid", color="k", lw=1.2,
+        a.plot(*binned_rate(t, h["evacuated"], width), drawstyle="steps-mid", color="k", lw=1.2,
                ls="--" if exits else "-", label="all exits")
     a.set(ylabel=f"flow rate ({unit}/s)", title="exit flow rate")
     a.legend()

@@ -326,6 +326,13 @@ def write_report(out_dir, case, exact, tasks, rows, reference, incomplete: str |
         for name in PLOTS:
             (out_dir / name).unlink(missing_ok=True)
         return text
+    write_plots(out_dir, case, rows, reference)
+    return text
+
+
+def write_plots(out_dir, case, rows, reference) -> None:
+    """error_vs_h.png, error_vs_time.png and, with a published reference, frontier.png of the rows' last time."""
+    metrics = _metrics_present(rows)
     final = [r for r in rows if r["time"] == max(x["time"] for x in rows)]
     title = case["title"] or case.directory.name
     labels = {m: METRICS[m] for m in metrics}
@@ -340,4 +347,14 @@ def write_report(out_dir, case, exact, tasks, rows, reference, incomplete: str |
                    "run time (s): setup + time stepping, no output",
                    f"{title}\nerror vs run time at t = {final[0]['time']:g}, with the published reference",
                    reference=reference, size=(6.4, 4.8))
-    return text
+
+
+def replot(out_dir, case_dir) -> None:
+    """Draw the plots of a finished study again from its convergence.csv (the case it ran: its title and
+    reference), e.g. after a change of the pictures; the tables are left as they are."""
+    out_dir = Path(out_dir)
+    with open(out_dir / "convergence.csv", newline="") as f:
+        rows = [{k: v if k in ("series", "mesh") else int(v) if k in ("level", "cells", "steps") else float(v)
+                 for k, v in row.items()} for row in csv.DictReader(f)]
+    case = load_case(case_dir)
+    write_plots(out_dir, case, rows, reference_curves(case))

@@ -15,8 +15,8 @@ from femcrowd.cli import main
 from femcrowd.driver.output import FrameSeries, HistoryFile, disc_frame, write_json
 from femcrowd.driver.reading import RunDirectory
 from femcrowd.mesh import file_checksum
+from femcrowd.plot.axes import FRUIN_COLOURS
 from femcrowd.plot.canvas import CMAPS, EXIT, FLOOR, WALL, Canvas, nice_top, tick_count
-from femcrowd.plot.measurements import FRUIN_COLOURS
 from femcrowd.plot.pictures import FloorPlan, curves_figure
 
 from ..support import ROOT

@@ -16,6 +16,7 @@ from femcrowd.studies.convergence import (
     observed_orders,
     plan_study,
     reference_curves,
+    replot,
     run_task,
     study,
 )
@@ -62,6 +63,17 @@ def test_report_files(corridor):
     for png in ("error_vs_h.png", "error_vs_time.png"):
         data = (out / png).read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 20_000
+
+
+def test_the_plots_are_drawn_again_from_the_table(corridor, tmp_path):
+    """replot: the study's convergence.csv alone (copied elsewhere) gives the plots the study drew, byte for byte
+    (matplotlib's PNG of the same figure), and leaves the tables as they are."""
+    rows, text, out = corridor
+    (tmp_path / "convergence.csv").write_bytes((out / "convergence.csv").read_bytes())
+    replot(tmp_path, CASES / "corridor-wall")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["convergence.csv", "error_vs_h.png", "error_vs_time.png"]
+    for png in ("error_vs_h.png", "error_vs_time.png"):
+        assert (tmp_path / png).read_bytes() == (out / png).read_bytes()
 
 
 def test_radial_errors_decrease_and_the_reference_curves_are_read(tmp_path):
