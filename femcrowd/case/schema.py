@@ -125,6 +125,11 @@ SCHEMA = {
         "end": Key(10.0, "number", "end time (s)", low=0, low_open=True),
         "cfl": Key(0.5, "number", "time step as a fraction of the CFL-1 step of the upwind transport, in "
                    "(0, 1] for upwind, (0, 0.5] for muscl and compressive, (0, 100] for implicit"),
+        "cfl_quantile": Key(0.0, "number", "the cell whose CFL-1 step time.cfl multiplies, as a quantile of the "
+                            "cells' CFL-1 steps: 0, the smallest cell (what the explicit transports need); with "
+                            "scheme.transport = implicit a larger one, e.g. 0.5 (the median cell), sets the step by "
+                            "the crowd's motion, not by the smallest triangle (docs/model.md, \"Steps by "
+                            "accuracy\")", low=0, high=1),
         "dt": Key(None, "number", "a fixed time step (s) instead of cfl", low=0, low_open=True),
         "stop_when_empty": Key(True, "bool", "stop once the crowd has left (scenes with exits)"),
         "empty_fraction": Key(1e-4, "number", "the crowd has left when less than this fraction of it is inside "

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..files import make_directory, write_text
-from ..studies.recommended import DOOR_CAPACITY, FLUCTUATION, PUSH, WALLS
+from ..studies.recommended import DOOR_CAPACITY, FLUCTUATION, PUSH, STEP, WALLS
 from .loading import toml_value
 from .schema import SCHEMA
 
@@ -153,6 +153,8 @@ def _recommended(lines: list, domain) -> list:
                   (f"walls = {toml_value(WALLS['velocity.walls'])}", "no desired direction into a wall (docs/model.md, "
                    '"Walls"); the paper\'s: "paper"')],
         "# speed_law": [], "# push": [],
+        "cfl": [(f"cfl = {STEP['time.cfl']}", "the whole CFL step of the speed law's fluxes: as accurate as 0.5 "
+                 "in half the steps (docs/performance.md)")],
         "density": [(f"density = {DENSITY}", f"persons/m^2 ({DENSITY * area:.0f} people): number or expression "
                      'in x, y, e.g. "2.0 * (x < 4)"'),
                     (f"# people = {DENSITY * area:.0f}", "or a number of persons: the density is then their shape")],

@@ -98,7 +98,8 @@ class MacroModel:
                                             [p.name for p in populations])
             self.solver = MacroSolver(domain, scene.boundary, [p.velocity for p in populations],
                                       case["scheme"]["transport"], case["time"]["cfl"], case["time"]["dt"],
-                                      case["projection"]["direct_max"], case["projection"]["tol"], laws)
+                                      case["projection"]["direct_max"], case["projection"]["tol"], laws,
+                                      case["time"]["cfl_quantile"])
             exits = scene.boundary.at(0.0)
             if self.solver.needs_projection:
                 self.solver.projection(exits)

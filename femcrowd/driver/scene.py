@@ -203,6 +203,12 @@ def check_transport_cfl(case: Case, transport) -> None:
     name, limit, dt, cfl = case["scheme"]["transport"], transport.max_cfl, case["time"]["dt"], case["time"]["cfl"]
     if not 0 < cfl <= limit:
         raise InputError(case.file, "time.cfl", cfl, f"must be in (0, {limit:g}] with scheme.transport = {name!r}")
+    quantile = case["time"]["cfl_quantile"]
+    if quantile and name != "implicit":
+        raise InputError(case.file, "time.cfl_quantile", quantile, f"must be 0 with scheme.transport = {name!r}: "
+                         "an explicit step stays positive only within the CFL step of the smallest cell")
+    if quantile and dt is not None:
+        raise InputError(case.file, "time.cfl_quantile", quantile, "sets the step of time.cfl: not with time.dt")
     if dt is not None and dt > limit * transport.max_dt:
         raise InputError(case.file, "time.dt", dt, f"exceeds {limit:g} x the CFL limit "
                          f"{transport.max_dt:.3g} s of the upwind scheme, the most scheme.transport = "

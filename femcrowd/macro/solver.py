@@ -52,9 +52,10 @@ class MacroSolver:
     MacroStep)."""
 
     def __init__(self, domain, boundary, velocities, transport="upwind", cfl=0.5, dt=None,
-                 direct_max=1_000_000, tol=1e-12, laws=None):
+                 direct_max=1_000_000, tol=1e-12, laws=None, quantile=0.0):
         """velocities: the desired velocity U0 of each population (femcrowd.macro.velocity); laws: the
-        speed law of each population (femcrowd.macro.speed_law.SpeedLaw, None or "constant": f = 1)."""
+        speed law of each population (femcrowd.macro.speed_law.SpeedLaw, None or "constant": f = 1);
+        quantile: the cell whose CFL-1 step cfl multiplies (``time.cfl_quantile``; 0: the smallest)."""
         self.domain, self.boundary, self.velocities = domain, boundary, list(velocities)
         self.routing = [v for v in self.velocities if isinstance(v, CongestionVelocity)]
         seen = SeenDensity(domain)   # what Hughes' cost sees (factorised on first use), one for all populations
@@ -64,7 +65,7 @@ class MacroSolver:
         #: False when every population has f(1) = 0: the density stays <= 1 without the projection
         self.needs_projection = any(law is None or law.saturates for law in self.laws)
         self.transport_class = TRANSPORTS[transport]
-        self.cfl, self.fixed_dt = cfl, dt
+        self.cfl, self.fixed_dt, self.quantile = cfl, dt, quantile
         self.direct_max, self.tol = direct_max, tol
         self.order = CellOrder()  # one nested-dissection order for the projections of every set of exits
         self.before_step, self.after_step = [], []
@@ -99,7 +100,9 @@ class MacroSolver:
         return self._projections[exits.open]
 
     def stable_dt(self, state: MacroState) -> float:
-        """Largest step allowed: cfl * (CFL-1 step of the upwind scheme), or the fixed dt.
+        """Largest step allowed: cfl * (CFL-1 step of the upwind scheme), or the fixed dt. The CFL-1 step is that
+        of the smallest cell, or with a quantile q > 0 (implicit transport only) the q-quantile of the cells'
+        (docs/model.md, "Steps by accuracy").
 
         A fixed dt is checked against the CFL limit at setup; it is still capped here
         (at the transport's own max_cfl) because a time-dependent U can lower the limit
@@ -111,7 +114,7 @@ class MacroSolver:
         # the bound of the total density takes every population's flux into a cell
         joint = joint_max_dt(self.domain, lwr) if len(lwr) > 1 else np.inf
         if self.fixed_dt is None:
-            return self.cfl * min(min(s.max_dt for s in schemes), joint)
+            return self.cfl * min(min(s.courant_dt(self.quantile) for s in schemes), joint)
         return min(self.fixed_dt, min(s.max_cfl * s.max_dt for s in schemes), joint)
 
     def step(self, state: MacroState, until: float = np.inf) -> MacroStep:

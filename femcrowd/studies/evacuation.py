@@ -62,7 +62,8 @@ def run_level(task) -> dict:
     total = h["mass"][0] + (h["inflow"][-1] if "inflow" in h else 0.0)   # everyone who was ever inside
     shares = (*SHARES, 1.0 - case["time"]["empty_fraction"])
     return {"cells": simulation.scene.domain.ncells, "h": simulation.scene.domain.h, "steps": len(h["time"]) - 1,
-            "wall_seconds": clock.seconds, "times": evacuation_times(h["time"], h["evacuated"], total, shares)}
+            "wall_seconds": clock.seconds, "cpu_seconds": clock.cpu,
+            "times": evacuation_times(h["time"], h["evacuated"], total, shares)}
 
 
 def observed(values, h) -> tuple[list, list, list]:
@@ -99,8 +100,8 @@ def study(case_dir, levels: int, out=None, overrides=(), cfls=(), set_values=(),
         results, stopped = stop.results, stop
     names = share_names(base)
     rows = [{"series": t.series, "level": t.level, "mesh": t.mesh, "cfl": t.cfl,
-             **({k: r[k] for k in ("cells", "h", "steps", "wall_seconds")} if _finished(r) else
-                {"cells": 0, "h": math.nan, "steps": 0, "wall_seconds": math.nan}),
+             **({k: r[k] for k in ("cells", "h", "steps", "wall_seconds", "cpu_seconds")} if _finished(r) else
+                {"cells": 0, "h": math.nan, "steps": 0, "wall_seconds": math.nan, "cpu_seconds": math.nan}),
              **{f"t {name}": v for name, v in zip(names, r["times"] if _finished(r) else [math.nan] * len(names))}}
             for t, r in zip(tasks, results)]
     with replaced(out_dir / "evacuation.csv", sync=True) as tmp, open(tmp, "w", newline="") as f:
@@ -131,12 +132,12 @@ def report(case, rows, names) -> str:
     for series in dict.fromkeys(r["series"] for r in rows):
         mine = [r for r in rows if r["series"] == series]
         lines += [f"## {series}", ""]
-        head = ["level", "cells", "h (m)", "steps", "run time (s)"] + [f"t {n}" for n in names]
+        head = ["level", "cells", "h (m)", "steps", "run time (s)", "CPU (s)"] + [f"t {n}" for n in names]
         lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
         for r in mine:
-            lines.append("| " + " | ".join([str(r["level"]), str(r["cells"]), _number(r["h"]), str(r["steps"]),
-                                             _number(r["wall_seconds"])] + [_time(r[f"t {n}"]) for n in names])
-                         + " |")
+            entries = [str(r["level"]), str(r["cells"]), _number(r["h"]), str(r["steps"]), _number(r["wall_seconds"]),
+                       _number(r["cpu_seconds"])] + [_time(r[f"t {n}"]) for n in names]
+            lines.append("| " + " | ".join(entries) + " |")
         lines += ["", "| share out | " + " | ".join(f"level {r['level']}: d (p)" for r in mine[1:])
                   + " | t* |", "|" + "---|" * (len(mine) + 1)]
         for n in names:

@@ -10,7 +10,7 @@ from click.testing import CliRunner
 
 from femcrowd import Simulation, load_case
 from femcrowd.cli import main
-from femcrowd.studies.recommended import DOOR_CAPACITY, PUSH
+from femcrowd.studies.recommended import DOOR_CAPACITY, MACRO, PUSH
 
 from ..support import MESHES
 
@@ -32,6 +32,7 @@ def test_a_new_case_has_the_recommended_settings_and_runs(tmp_path, mesh, doors)
     assert case["boundary"]["capacity"] == {name: DOOR_CAPACITY for name in doors}
     assert case["model"]["rho_max"] == 5.4 and case["velocity"]["speed"] == 1.34
     assert case["velocity"]["speed_law"] == "weidmann" and case["velocity"]["push"] == PUSH
+    assert all(case[key.split(".")[0]][key.split(".")[1]] == value for key, value in MACRO.items())   # the step too
     result = Simulation(load_case(tmp_path / "case", {"time.end": 0.3})).run(stop_when_empty=False)
     h = result.history
     assert len(h["time"]) > 3 and result.summary["status"] == "completed"

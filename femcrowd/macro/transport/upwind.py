@@ -62,7 +62,19 @@ class UpwindTransport:
         self._update, self._update_dt = None, None  # I + dt diag(1/|K|) F for the usual dt (see step)
         outflow = np.bincount(k0, out0, n) + np.bincount(k1[inner], out1[inner], n)
         with np.errstate(divide="ignore"):
-            self.max_dt = float(np.min(domain.area / outflow))  # inf when nothing moves
+            self.cell_dt = domain.area / outflow   # the CFL-1 step of each cell, inf where nothing leaves it
+        self.max_dt = float(np.min(self.cell_dt))  # inf when nothing moves
+        self._quantiles = {}
+
+    def courant_dt(self, quantile: float) -> float:
+        """The ``quantile`` of the cells' CFL-1 steps |K| / (outflow rate of K) over the cells that move
+        (``time.cfl_quantile``, docs/model.md "Steps by accuracy"); 0: max_dt, the smallest."""
+        if quantile == 0:
+            return self.max_dt
+        if quantile not in self._quantiles:
+            moving = self.cell_dt[np.isfinite(self.cell_dt)]
+            self._quantiles[quantile] = float(np.quantile(moving, quantile)) if len(moving) else np.inf
+        return self._quantiles[quantile]
 
     def step(self, rho: np.ndarray, dt: float) -> Prediction:
         """rho~, the mass that left through each exit during dt (array over exits.names) and the net mass
