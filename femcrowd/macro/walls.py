@@ -12,17 +12,18 @@ whose outflow goes to a neighbour that sends it back, keeps its mass for ever.
 
 - **slip**: U_K . n_e <= 0 on each wall facet e of K: the into-wall component is removed, U_K <- U_K -
   (U_K . n_e)^+ n_e, and U_K rescaled to the cell's speed (|grad d| = 1 in the continuum);
-- **every path of flows ends at an exit**: in the graph of the upwind flows (K -> L across an interior facet
-  with U_K . n_{K,L} > 0, K -> outside across an open exit with U_K . n > 0), every path from a cell that can
-  reach an exit through the mesh and has a speed ends at an exit: none leads into a closed loop of flows or to a
-  cell that sends nothing on (:func:`sound`). A path to an exit is not enough: a cell beside a small column
-  whose flow went back into a loop that leaked a little kept a tenth of its density for seconds
-  (tests/macro/test_walls.py). A cell that is not sound (in a loop, with U = 0 after the slip, or sending a
-  part of its flow into such cells) heads for the midpoint of its facet to a sound neighbour, the exit first,
-  else the neighbour of least potential: U_K = v_K (m_e - c_K) / |m_e - c_K|, whose only outflow facet is e
-  (U_K . n_f = -v_K h_f / (6 |m_e - c_K|) < 0 on the two others, h_f K's height over f), layer by layer from
-  the sound cells. Only such cells change. The flows then form a graph without cycles that ends at the exits,
-  so the upwind transport empties every such cell at a rate bounded below.
+- **every path of flows ends at an exit**: in the graph of the dominant upwind flows (K -> L across an interior
+  facet with U_K . n_{K,L} > 0 and U_K . n_{K,L} + U_L . n_{K,L} > 0: each cell sends with its own U, and of two
+  flows across a facet both ways only the larger counts; K -> outside across an open exit with U_K . n > 0), every
+  path from a cell that can reach an exit through the mesh and has a speed ends at an exit: none leads into a closed
+  loop of flows or to a cell that sends nothing on (:func:`sound`). A path to an exit is not enough: a cell beside a
+  small column whose flow went back into a loop that leaked a little kept a tenth of its density for seconds
+  (tests/macro/test_walls.py). A cell that is not sound (in a loop, with U = 0 after the slip, or sending a part of
+  its flow into such cells) heads for the midpoint of its facet to a sound neighbour, the exit first, else the
+  neighbour of least potential: U_K = v_K (m_e - c_K) / |m_e - c_K|, whose only outflow facet is e (U_K . n_f = -v_K
+  h_f / (6 |m_e - c_K|) < 0 on the two others, h_f K's height over f), layer by layer from the sound cells. Only
+  such cells change. The dominant flows then form a graph without cycles that ends at the exits: no loop holds the
+  mass back.
 """
 
 import numpy as np
@@ -56,15 +57,18 @@ def slip(domain, exits, cells, speed) -> np.ndarray:
     return cells
 
 
-def _flows(domain, exits, cells) -> sp.csr_matrix:
-    """The graph of the upwind flows of U (cells: U per cell): K -> L across an interior facet with U_K . n > 0,
-    K -> n (the outside) across an open exit; (n + 1) x (n + 1)."""
+def _flows(domain, exits, cells, dominant=False) -> sp.csr_matrix:
+    """The graph of the upwind flows of U (cells: U per cell): K -> L across an interior facet with U_K . n > 0
+    (``dominant``: and U_K . n + U_L . n > 0, the larger of two flows that cross the facet both ways), K -> n
+    (the outside) across an open exit; (n + 1) x (n + 1)."""
     n = domain.ncells
     k0, k1 = domain.f2t
     inner = domain.interior
     a0 = np.einsum("ij,ij->i", cells[k0], domain.normal)
     a1 = np.einsum("ij,ij->i", cells[np.where(inner, k1, k0)], domain.normal)
     ahead, back = inner & (a0 > 0), inner & (a1 < 0)
+    if dominant:
+        ahead, back = ahead & (a0 + a1 > 0), back & (a0 + a1 < 0)
     out = exits.exit & (a0 > 0)
     rows = np.concatenate([k0[ahead], k1[back], k0[out]])
     cols = np.concatenate([k1[ahead], k0[back], np.full(out.sum(), n)])
@@ -91,11 +95,11 @@ def draining(domain, exits, cells) -> np.ndarray:
 
 
 def sound(domain, exits, cells) -> np.ndarray:
-    """Per cell: does every path of upwind flows from it end at an exit? Not where a path leads into a closed loop of
-    flows (a strongly connected set of cells) or to a cell that sends nothing on: mass that takes it would stay
-    there, or leave only by the leak of the loop, which may be as slow as round-off."""
+    """Per cell: does every path of dominant upwind flows from it end at an exit? Not where a path leads into a
+    closed loop of flows (a strongly connected set of cells) or to a cell that sends nothing on: mass that takes
+    it would stay there, or leave only by the leak of the loop, which may be as slow as round-off."""
     n = domain.ncells
-    graph = _flows(domain, exits, cells)
+    graph = _flows(domain, exits, cells, dominant=True)
     _, label = connected_components(graph, directed=True, connection="strong")
     bad = (np.bincount(label)[label] > 1) | (np.diff(graph.indptr) == 0)
     bad[n] = False
