@@ -12,18 +12,17 @@ whose outflow goes to a neighbour that sends it back, keeps its mass for ever.
 
 - **slip**: U_K . n_e <= 0 on each wall facet e of K: the into-wall component is removed, U_K <- U_K -
   (U_K . n_e)^+ n_e, and U_K rescaled to the cell's speed (|grad d| = 1 in the continuum);
-- **every path of flows ends at an exit**: in the graph of the dominant upwind flows (K -> L across an interior
-  facet with U_K . n_{K,L} > 0 and U_K . n_{K,L} + U_L . n_{K,L} > 0: each cell sends with its own U, and of two
-  flows across a facet both ways only the larger counts; K -> outside across an open exit with U_K . n > 0), every
-  path from a cell that can reach an exit through the mesh and has a speed ends at an exit: none leads into a closed
-  loop of flows or to a cell that sends nothing on (:func:`sound`). A path to an exit is not enough: a cell beside a
-  small column whose flow went back into a loop that leaked a little kept a tenth of its density for seconds
-  (tests/macro/test_walls.py). A cell that is not sound (in a loop, with U = 0 after the slip, or sending a part of
-  its flow into such cells) heads for the midpoint of its facet to a sound neighbour, the exit first, else the
+- **every cell drains, and no loop holds it back**: in the graph of the upwind flows (K -> L across an interior
+  facet with U_K . n_{K,L} > 0, K -> outside across an open exit with U_K . n > 0), every cell that can reach an
+  exit through the mesh and has a speed has a path to an exit (:func:`draining`); and in the graph of the dominant
+  flows (each cell sends with its own U, and of two flows across a facet both ways only the larger counts) no such
+  cell is in a closed loop or without a dominant outflow (:func:`held`): mass there leaves only by what the loop
+  leaks. A path to an exit is not enough: a cell in the corner of a small column, sent on to its one neighbour,
+  which sent it back, kept a tenth of its density for seconds (tests/macro/test_walls.py). A cell without a path, or
+  held back, heads for the midpoint of its facet to a neighbour with the property, the exit first, else the
   neighbour of least potential: U_K = v_K (m_e - c_K) / |m_e - c_K|, whose only outflow facet is e (U_K . n_f = -v_K
-  h_f / (6 |m_e - c_K|) < 0 on the two others, h_f K's height over f), layer by layer from the sound cells. Only
-  such cells change. The dominant flows then form a graph without cycles that ends at the exits: no loop holds the
-  mass back.
+  h_f / (6 |m_e - c_K|) < 0 on the two others, h_f K's height over f), layer by layer; again while a loop is left.
+  Only such cells change.
 """
 
 import numpy as np
@@ -32,6 +31,8 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components
 
 #: a component into a wall below this fraction of the speed is round-off
 ROUND_OFF = 1e-12
+#: the most rounds of loop breaking (each breaks every loop it finds; a redirection rarely closes a new one)
+LOOPS = 5
 
 
 def slip(domain, exits, cells, speed) -> np.ndarray:
@@ -94,26 +95,40 @@ def draining(domain, exits, cells) -> np.ndarray:
     return _reaching(_flows(domain, exits, cells), outside)[:n]
 
 
-def sound(domain, exits, cells) -> np.ndarray:
-    """Per cell: does every path of dominant upwind flows from it end at an exit? Not where a path leads into a
-    closed loop of flows (a strongly connected set of cells) or to a cell that sends nothing on: mass that takes
-    it would stay there, or leave only by the leak of the loop, which may be as slow as round-off."""
-    n = domain.ncells
+def held(domain, exits, cells) -> np.ndarray:
+    """Per cell: is its mass held back by a loop in the graph of the dominant upwind flows: is it in a strongly
+    connected set of two or more cells, or has it no dominant outflow (it sends less across each facet than it
+    gets back)? Such mass leaves only by what the loop leaks, which may be as slow as round-off."""
     graph = _flows(domain, exits, cells, dominant=True)
     _, label = connected_components(graph, directed=True, connection="strong")
-    bad = (np.bincount(label)[label] > 1) | (np.diff(graph.indptr) == 0)
-    bad[n] = False
-    return ~_reaching(graph, bad)[:n]
+    return ((np.bincount(label)[label] > 1) | (np.diff(graph.indptr) == 0))[:domain.ncells]
+
+
+def sound(domain, exits, cells) -> np.ndarray:
+    """Per cell: does it drain and is it not held back by a loop (the two properties of the module)?"""
+    return draining(domain, exits, cells) & ~held(domain, exits, cells)
 
 
 def drain(domain, exits, cells, speed, level) -> np.ndarray:
-    """U per cell such that every path of upwind flows from a cell with a speed and a finite level (potential) ends at
-    an exit: the cells that are not :func:`sound` head for the midpoint of a facet to an exit or to a sound
-    neighbour of least level, layer by layer."""
-    drains = sound(domain, exits, cells)
+    """U per cell such that every cell with a speed and a finite level (potential) drains and is not held back by a
+    loop: the cells that are, head for the midpoint of a facet to an exit or to a sound neighbour of least level,
+    layer by layer; again while a loop is left (at most LOOPS times)."""
+    cells = _redirect(domain, exits, cells, speed, level, draining(domain, exits, cells))
+    moving = (speed > 0) & np.isfinite(level)
+    for _ in range(LOOPS):
+        if not (held(domain, exits, cells) & moving).any():
+            break
+        cells = _redirect(domain, exits, cells, speed, level, sound(domain, exits, cells))
+    return cells
+
+
+def _redirect(domain, exits, cells, speed, level, drains) -> np.ndarray:
+    """The cells with a speed and a finite level that are not ``drains`` head for the midpoint of their facet to an
+    exit or to a ``drains`` neighbour of least level, layer by layer from the ``drains`` cells."""
     todo = ~drains & (speed > 0) & np.isfinite(level)
     if not todo.any():
         return cells
+    drains = drains.copy()
     cells = cells.copy()
     k0, k1 = domain.f2t
     inner = domain.interior
@@ -124,7 +139,7 @@ def drain(domain, exits, cells, speed, level) -> np.ndarray:
     while todo.any():
         ready = todo[own] & ((other < 0) | drains[np.maximum(other, 0)])
         if not ready.any():
-            break   # the rest is cut off from the sound cells by cells without a speed
+            break   # the rest is cut off from the draining cells by cells without a speed
         cell, facet = own[ready], sides[ready]
         key = np.where(other[ready] < 0, -np.inf, level[np.maximum(other[ready], 0)])
         order = np.lexsort((facet, key, cell))
@@ -137,5 +152,5 @@ def drain(domain, exits, cells, speed, level) -> np.ndarray:
 
 
 def wall_treatment(domain, exits, cells, speed, level) -> np.ndarray:
-    """``walls = "slip"``: the slip of U at the walls, then every path of flows ends at an exit (see the module)."""
+    """``walls = "slip"``: the slip of U at the walls, then every cell drains, held back by no loop (the module)."""
     return drain(domain, exits, slip(domain, exits, cells, speed), speed, level)
