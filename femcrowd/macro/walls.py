@@ -12,27 +12,24 @@ whose outflow goes to a neighbour that sends it back, keeps its mass for ever.
 
 - **slip**: U_K . n_e <= 0 on each wall facet e of K: the into-wall component is removed, U_K <- U_K -
   (U_K . n_e)^+ n_e, and U_K rescaled to the cell's speed (|grad d| = 1 in the continuum);
-- **every cell drains, and no loop holds it back**: in the graph of the upwind flows (K -> L across an interior
-  facet with U_K . n_{K,L} > 0, K -> outside across an open exit with U_K . n > 0), every cell that can reach an
-  exit through the mesh and has a speed has a path to an exit (:func:`draining`); and in the graph of the dominant
-  flows (each cell sends with its own U, and of two flows across a facet both ways only the larger counts) no such
-  cell is in a closed loop or without a dominant outflow (:func:`held`): mass there leaves only by what the loop
-  leaks. A path to an exit is not enough: a cell in the corner of a small column, sent on to its one neighbour,
-  which sent it back, kept a tenth of its density for seconds (tests/macro/test_walls.py). A cell without a path, or
-  held back, heads for the midpoint of its facet to a neighbour with the property, the exit first, else the
-  neighbour of least potential: U_K = v_K (m_e - c_K) / |m_e - c_K|, whose only outflow facet is e (U_K . n_f = -v_K
-  h_f / (6 |m_e - c_K|) < 0 on the two others, h_f K's height over f), layer by layer; again while a loop is left.
-  Only such cells change.
+- **every cell drains**: in the graph of the dominant upwind flows (K -> L across an interior facet with
+  U_K . n_{K,L} > 0 and U_K . n_{K,L} + U_L . n_{K,L} > 0: each cell sends with its own U, and of two flows
+  across a facet both ways only the larger counts; K -> outside across an open exit with U_K . n > 0), every
+  cell that can reach an exit through the mesh and has a speed has a path to an exit. (With every flow
+  counted, a cell in the corner of a small column, sent on to its one neighbour, which sent most of it back,
+  kept half its density for seconds: tests/macro/test_walls.py.) A cell without one (in a closed loop of
+  flows, or with U = 0 after the slip) heads for the midpoint of its facet to a neighbour that has one, the
+  exit first, else the neighbour of least potential: U_K = v_K (m_e - c_K) / |m_e - c_K|, whose only
+  outflow facet is e (U_K . n_f = -v_K h_f / (6 |m_e - c_K|) < 0 on the two others, h_f K's height
+  over f), layer by layer from the draining cells. Only such cells change.
 """
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.csgraph import breadth_first_order, connected_components
+from scipy.sparse.csgraph import breadth_first_order
 
 #: a component into a wall below this fraction of the speed is round-off
 ROUND_OFF = 1e-12
-#: the most rounds of loop breaking (each breaks every loop it finds; a redirection rarely closes a new one)
-LOOPS = 5
 
 
 def slip(domain, exits, cells, speed) -> np.ndarray:
@@ -58,10 +55,9 @@ def slip(domain, exits, cells, speed) -> np.ndarray:
     return cells
 
 
-def _flows(domain, exits, cells, dominant=False) -> sp.csr_matrix:
-    """The graph of the upwind flows of U (cells: U per cell): K -> L across an interior facet with U_K . n > 0
-    (``dominant``: and U_K . n + U_L . n > 0, the larger of two flows that cross the facet both ways), K -> n
-    (the outside) across an open exit; (n + 1) x (n + 1)."""
+def draining(domain, exits, cells, dominant=False) -> np.ndarray:
+    """Per cell: has it a path to an exit in the graph of the upwind flows of U (cells: U per cell)? ``dominant``:
+    of two flows across a facet both ways (each cell sends with its own U), only the larger counts."""
     n = domain.ncells
     k0, k1 = domain.f2t
     inner = domain.interior
@@ -71,64 +67,22 @@ def _flows(domain, exits, cells, dominant=False) -> sp.csr_matrix:
     if dominant:
         ahead, back = ahead & (a0 + a1 > 0), back & (a0 + a1 < 0)
     out = exits.exit & (a0 > 0)
-    rows = np.concatenate([k0[ahead], k1[back], k0[out]])
-    cols = np.concatenate([k1[ahead], k0[back], np.full(out.sum(), n)])
-    return sp.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n + 1, n + 1))
-
-
-def _reaching(graph, targets) -> np.ndarray:
-    """Per node of the graph: has it a path to one of the targets (a boolean mask)?"""
-    n = graph.shape[0]
-    into = sp.csr_matrix((np.ones(targets.sum()), (np.full(targets.sum(), n), np.flatnonzero(targets))),
-                         shape=(n + 1, n + 1))
-    reverse = sp.bmat([[graph.T, None], [None, sp.csr_matrix((1, 1))]]).tocsr() + into
+    # the reversed flows (L <- K as L -> K), the outside as node n
+    rows = np.concatenate([k1[ahead], k0[back], np.full(out.sum(), n)])
+    cols = np.concatenate([k0[ahead], k1[back], k0[out]])
+    graph = sp.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n + 1, n + 1))
     reached = np.zeros(n + 1, bool)
-    reached[breadth_first_order(reverse, n, directed=True, return_predecessors=False)] = True
+    reached[breadth_first_order(graph, n, directed=True, return_predecessors=False)] = True
     return reached[:n]
 
 
-def draining(domain, exits, cells) -> np.ndarray:
-    """Per cell: has it a path to an exit in the graph of the upwind flows of U (cells: U per cell)?"""
-    n = domain.ncells
-    outside = np.zeros(n + 1, bool)
-    outside[n] = True
-    return _reaching(_flows(domain, exits, cells), outside)[:n]
-
-
-def held(domain, exits, cells) -> np.ndarray:
-    """Per cell: is its mass held back by a loop in the graph of the dominant upwind flows: is it in a strongly
-    connected set of two or more cells, or has it no dominant outflow (it sends less across each facet than it
-    gets back)? Such mass leaves only by what the loop leaks, which may be as slow as round-off."""
-    graph = _flows(domain, exits, cells, dominant=True)
-    _, label = connected_components(graph, directed=True, connection="strong")
-    return ((np.bincount(label)[label] > 1) | (np.diff(graph.indptr) == 0))[:domain.ncells]
-
-
-def sound(domain, exits, cells) -> np.ndarray:
-    """Per cell: does it drain and is it not held back by a loop (the two properties of the module)?"""
-    return draining(domain, exits, cells) & ~held(domain, exits, cells)
-
-
 def drain(domain, exits, cells, speed, level) -> np.ndarray:
-    """U per cell such that every cell with a speed and a finite level (potential) drains and is not held back by a
-    loop: the cells that are, head for the midpoint of a facet to an exit or to a sound neighbour of least level,
-    layer by layer; again while a loop is left (at most LOOPS times)."""
-    cells = _redirect(domain, exits, cells, speed, level, draining(domain, exits, cells))
-    moving = (speed > 0) & np.isfinite(level)
-    for _ in range(LOOPS):
-        if not (held(domain, exits, cells) & moving).any():
-            break
-        cells = _redirect(domain, exits, cells, speed, level, sound(domain, exits, cells))
-    return cells
-
-
-def _redirect(domain, exits, cells, speed, level, drains) -> np.ndarray:
-    """The cells with a speed and a finite level that are not ``drains`` head for the midpoint of their facet to an
-    exit or to a ``drains`` neighbour of least level, layer by layer from the ``drains`` cells."""
+    """U per cell such that every cell with a speed and a finite level (potential) drains: the cells that do not
+    head for the midpoint of a facet to an exit or to a draining neighbour of least level, layer by layer."""
+    drains = draining(domain, exits, cells, dominant=True)
     todo = ~drains & (speed > 0) & np.isfinite(level)
     if not todo.any():
         return cells
-    drains = drains.copy()
     cells = cells.copy()
     k0, k1 = domain.f2t
     inner = domain.interior
@@ -152,5 +106,5 @@ def _redirect(domain, exits, cells, speed, level, drains) -> np.ndarray:
 
 
 def wall_treatment(domain, exits, cells, speed, level) -> np.ndarray:
-    """``walls = "slip"``: the slip of U at the walls, then every cell drains, held back by no loop (the module)."""
+    """``walls = "slip"``: the slip of U at the walls, then every cell drains (see the module)."""
     return drain(domain, exits, slip(domain, exits, cells, speed), speed, level)
