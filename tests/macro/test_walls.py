@@ -4,7 +4,11 @@ every transport; the paper's direction ("paper") stays as it was."""
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 import skfem
+from hypothesis import HealthCheck, example, given, settings
+from hypothesis import strategies as st
+from scipy.sparse.csgraph import connected_components
 
 from femcrowd import Simulation, load_case
 from femcrowd.case import Expression
@@ -26,12 +30,14 @@ SOLIDS = {
 }
 
 
-def obstacle(name, n=8) -> Domain:
-    """The unit square (a symmetric mesh, n cells per side) without the triangles of SOLIDS[name]; exit x = 1."""
+def obstacle(name, n=8, solid=None, door=(0.0, 1.0)) -> Domain:
+    """The unit square (a symmetric mesh, n cells per side) without the triangles of SOLIDS[name] (or of the
+    predicate ``solid``); exit: the part ``door`` (y from, to) of the side x = 1."""
     mesh = skfem.MeshTri.init_sqsymmetric().refined(int(np.log2(n)))
     x, y = mesh.p[:, mesh.t].mean(axis=1)
-    mesh = mesh.remove_elements(np.flatnonzero(SOLIDS[name](x, y)))
-    return Domain(mesh.with_boundaries({"exit": lambda p: np.isclose(p[0], 1)}), ["exit"])
+    mesh = mesh.remove_elements(np.flatnonzero((solid or SOLIDS[name])(x, y)))
+    exit = lambda p: np.isclose(p[0], 1) & (p[1] > door[0]) & (p[1] < door[1])   # noqa: E731
+    return Domain(mesh.with_boundaries({"exit": exit}), ["exit"])
 
 
 def into_wall(domain, exits, cells) -> np.ndarray:
@@ -44,8 +50,8 @@ def into_wall(domain, exits, cells) -> np.ndarray:
 @pytest.mark.parametrize("n", [8, 32])
 def test_slip_never_points_into_a_wall_and_every_cell_drains(name, n):
     """The paper's P1 direction points into the obstacle (up to 0.38-1 of the speed); with slip U . n <= 0 on every
-    wall facet (to round-off), |U| = speed in every cell, every cell has a path to the exit, and a cell away from
-    the walls whose paper direction drains keeps that direction bit for bit."""
+    wall facet (to round-off), |U| = speed in every cell, every cell drains held back by no loop, and a cell
+    away from the walls whose paper direction has both properties keeps that direction bit for bit."""
     domain = obstacle(name, n)
     exits = Boundary(domain).at(0.0)
     paper = ExitsVelocity(domain, Expression("1.3")).cells(exits)
@@ -53,10 +59,10 @@ def test_slip_never_points_into_a_wall_and_every_cell_drains(name, n):
     assert into_wall(domain, exits, paper).max() > 0.3
     assert into_wall(domain, exits, cells).max() <= 1e-12
     assert np.allclose(np.hypot(*cells.T), 1.3, rtol=1e-12)
-    assert draining(domain, exits, cells).all()
+    assert draining(domain, exits, cells).all() and draining(domain, exits, cells, dominant=True).all()
     at_wall = np.zeros(domain.ncells, bool)
     at_wall[domain.f2t[0][exits.wall]] = True
-    kept = ~at_wall & draining(domain, exits, paper)
+    kept = ~at_wall & draining(domain, exits, paper, dominant=True)
     assert np.array_equal(cells[kept], paper[kept]) and kept.mean() > 0.5
 
 
@@ -112,7 +118,7 @@ def test_every_cell_of_the_shipped_meshes_drains(mesh):
     for velocity in (ExitsVelocity(domain, Expression("1"), walls="slip"), route):
         cells = velocity.cells(exits)
         reach = np.isfinite(velocity.potential(exits)) & (velocity.potential(exits) >= 0)
-        assert np.all(draining(domain, exits, cells)[reach])
+        assert np.all(draining(domain, exits, cells, dominant=True)[reach])
         assert into_wall(domain, exits, cells).max(initial=0.0) <= 1e-12
 
 
@@ -138,3 +144,97 @@ def test_the_column_case_empties_on_a_refined_mesh():
             assert summary["evacuation_time"] is None and summary["remaining"]["people"] > 0.01
         else:
             assert summary["evacuation_time"] is not None and summary["remaining"]["reason"] == "evacuated"
+
+
+# --- the property on random scenes ---------------------------------------------------------------------------
+
+#: a solid: (kind, centre x, centre y, half size), on a grid of 1/16 so that the scenes are few and exact
+solids = st.tuples(st.sampled_from(["diamond", "square", "post"]), st.integers(3, 13).map(lambda k: k / 16),
+                   st.integers(2, 14).map(lambda k: k / 16), st.integers(1, 4).map(lambda k: k / 16))
+#: the door on the side x = 1: (from, to) in sixteenths
+doors = st.tuples(st.integers(0, 14), st.integers(2, 16)).filter(lambda d: d[1] - d[0] >= 2)
+
+
+def _through_facets(domain, exits) -> np.ndarray:
+    """Per cell: is it joined to the exit by a chain of cells that share facets? (A pocket that touches the rest at
+    a node only has a finite distance but no finite-volume path: nothing can leave it.)"""
+    n, (k0, k1) = domain.ncells, domain.f2t
+    inner = domain.interior
+    rows = np.concatenate([k0[inner], k0[exits.exit]])
+    cols = np.concatenate([k1[inner], np.full(exits.exit.sum(), n)])
+    _, label = connected_components(sp.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n + 1, n + 1)),
+                                    directed=False)
+    return label[:n] == label[n]
+
+
+def _removed(shapes):
+    """The predicate of the union of the solids: a diamond (a wedge each way), a square column, a wall x = cx
+    across the room with a doorway of half width h at y = cy (two door posts)."""
+    def solid(x, y):
+        out = np.zeros(np.shape(x), bool)
+        for kind, cx, cy, h in shapes:
+            if kind == "diamond":
+                out |= np.abs(x - cx) + np.abs(y - cy) < h
+            elif kind == "square":
+                out |= (np.abs(x - cx) < h) & (np.abs(y - cy) < h)
+            else:
+                out |= (np.abs(x - cx) < 1 / 32) & (np.abs(y - cy) > h)
+        return out
+    return solid
+
+
+def _empties(shapes, door, n):
+    """With slip, every cell joined to the exit through facets drains, for the shortest route and the route choice
+    on a crowd, and the upwind transport of a crowd on those cells (the prediction alone) leaves less than 1e-6 of
+    it after twice the longest walk plus 2 s, mass conserved to round-off."""
+    domain = obstacle(None, n, _removed(shapes), (door[0] / 16, door[1] / 16))
+    exits = Boundary(domain).at(0.0)
+    if not exits.exit.any():
+        return   # the door is behind a solid: no exit
+    density = 0.5 + 0.5 * np.sin(7 * domain.centroid[:, 0]) * np.cos(5 * domain.centroid[:, 1])
+    route = CongestionVelocity(domain, Expression("1"), None, SpeedLaw("linear"), 1.0, walls="slip")
+    route.route(0.0, density, exits)
+    shortest = ExitsVelocity(domain, Expression("1"), walls="slip")
+    reach = _through_facets(domain, exits)
+    for velocity in (shortest, route):
+        assert np.all(draining(domain, exits, velocity.cells(exits))[reach])
+    scheme = TRANSPORTS["upwind"](domain, exits, shortest.normal_on_facets(None, exits))
+    rho = np.where(reach, 0.2, 0.0)
+    mass, out, dt = rho @ domain.area, 0.0, scheme.max_dt
+    for _ in range(int(np.ceil((2.0 + 2 * shortest.potential(exits).max()) / dt))):
+        step = scheme.step(rho, dt)
+        rho, out = step.rho, out + step.outflow.sum()
+    assert abs(rho @ domain.area + out - mass) <= 1e-12
+    assert rho @ domain.area <= 1e-6 * mass
+
+
+def test_the_corner_of_a_small_column_empties():
+    """Found by the property test below: in the corner of a one-triangle column (unit room, n = 8, exit at the far
+    corner) a cell with U = 0 after the slip was sent to its one neighbour, which sent most of it back (0.696 of
+    the speed back, 0.015 on): 0.097 of a density of 0.2 left after 5 s. The repair now asks for a path of
+    dominant flows (of two flows across a facet, the larger)."""
+    _empties([("diamond", 0.25, 0.875, 1 / 16)], (0, 2), 8)
+
+
+#: scenes the property test found that the slip does not empty in that time (docs/model.md, "Walls")
+OPEN = [([("post", 3 / 16, 0.125, 1 / 16)], (0, 2), 8), ([("diamond", 0.5, 0.125, 0.125)], (0, 4), 8)]
+
+
+@pytest.mark.xfail(strict=True, reason="open: a slow exchange between two cells beside a wall (docs/model.md)")
+@pytest.mark.parametrize("shapes, door, n", OPEN)
+def test_open_scenes_still_hold_a_little_mass(shapes, door, n):
+    """A wall one cell thick with a doorway at its foot; a wedge standing on a wall: two cells beside the wall keep
+    about 6e-4 of a density of 0.2. Strict: reported the day the slip empties them."""
+    _empties(shapes, door, n)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="open: the scenes of OPEN and others like them (docs/model.md)")
+@settings(max_examples=25, deadline=None, derandomize=True, database=None,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(shapes=st.lists(solids, min_size=1, max_size=3), door=doors, n=st.sampled_from([8, 16]))
+@example(shapes=[("diamond", 0.5, 0.5, 0.25)], door=(0, 16), n=8)   # the wedge, where "paper" keeps 11 %
+def test_no_cell_keeps_its_mass_in_a_scene_whose_every_cell_reaches_an_exit(shapes, door, n):
+    """Random rooms (columns, wedges, walls with a doorway; a door anywhere on one side): see _empties. Not yet
+    true of every scene (OPEN); hypothesis finds them."""
+    _empties(shapes, door, n)
