@@ -36,6 +36,7 @@ from .validation import (
     flow,
     groups,
     people_of,
+    queue,
     scene_tasks,
     simulate,
     write_rows,
@@ -94,7 +95,7 @@ def default_inflow() -> float:
 
 def scene(exit_width: float, people: float, inflow: float, root: Path) -> Path:
     """The case directory of the corridor with this exit (plan, mesh, case.toml), made once under root."""
-    directory = Path(root) / f"corridor-{exit_width:g}-{people:g}-{inflow:g}"
+    directory = Path(root) / f"corridor-{exit_width:g}-{people:g}-{inflow!r}"
     if not (directory / "case.toml").exists():
         make_directory(directory, own=True)
         low, high = (WIDTH - exit_width) / 2, (WIDTH + exit_width) / 2
@@ -107,15 +108,10 @@ def scene(exit_width: float, people: float, inflow: float, root: Path) -> Path:
     return directory
 
 
-def window(evacuated, people) -> np.ndarray:
-    """The steps while 20 to 80 % of the crowd are out (the stretch of ``validation.flow``)."""
-    return (evacuated >= 0.2 * people) & (evacuated <= 0.8 * people)
-
-
 def front_density(times, density, evacuated, people) -> float:
-    """The time mean of the density in front of the exit over the window (trapezoidal, on the steps); nan for a
-    window of fewer than two steps."""
-    inside = window(evacuated, people)
+    """The time mean of the density in front of the exit while 20 to 80 % of the crowd are out (the stretch of
+    the exit flow, ``validation.queue``; trapezoidal, on the steps); nan for fewer than two steps."""
+    inside = queue(evacuated, people)
     if inside.sum() < 2:
         return float("nan")
     return float(np.trapezoid(density[inside], times[inside]) / (times[inside][-1] - times[inside][0]))

@@ -123,10 +123,15 @@ def scene(width: float, root: Path) -> Path:
     return directory
 
 
+def queue(evacuated, total) -> np.ndarray:
+    """The steps while the queue lasts: 20 % to 80 % of the crowd out."""
+    return (evacuated >= 0.2 * total) & (evacuated <= 0.8 * total)
+
+
 def flow(times, evacuated, total):
     """Persons per second while the queue lasts: the least-squares slope of evacuated(t) between 20 % and
     80 % of the crowd out; a crowd that clogs before 80 % are out gets its mean flow over the run."""
-    window = (evacuated >= 0.2 * total) & (evacuated <= 0.8 * total)
+    window = queue(evacuated, total)
     if evacuated[-1] < 0.8 * total or window.sum() < 2:
         return float(evacuated[-1] / times[-1])
     return float(np.polyfit(times[window], evacuated[window], 1)[0])

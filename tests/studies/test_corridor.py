@@ -64,7 +64,7 @@ def test_the_measures_on_a_synthetic_count_of_people_out():
     t = np.linspace(0, 50, 501)
     out = 2 * t
     assert validation.flow(t, out, 100) == pytest.approx(2, rel=1e-12)
-    inside = corridor.window(out, 100)
+    inside = validation.queue(out, 100)
     assert t[inside][0] == pytest.approx(10) and t[inside][-1] == pytest.approx(40)
     assert corridor.front_density(t, t, out, 100) == pytest.approx(25, rel=1e-12)
     assert math.isnan(corridor.front_density(t[:2], t[:2], out[:2], 100))
@@ -118,7 +118,7 @@ def test_the_check_writes_its_table_and_its_runs(tmp_path):
     """The quick variant of docs/validation.md at a high inflow (a short run): everyone out, the table with
     the ratios to the experiment and the runs' CSV."""
     out = tmp_path / "check"
-    result = CliRunner().invoke(main, ["validate", "--scene", "corridor", "--settings", "capacity", "--widths",
+    result = CliRunner().invoke(main, ["validate", "--scene", "corridor", "--settings", "paper", "--widths",
                                        "1.2", "--levels", "1", "--inflow", "6", "--serial", "--out", str(out)])
     assert result.exit_code == 0, result.output
     table = (out / "corridor.md").read_text()
