@@ -193,11 +193,12 @@ def markdown(table) -> str:
     experiment's (n/a: no figure found)."""
     known = runs()
     lines = ["| setting | exit (m) | exit flow (persons/s) | / experiment | last out (s) | / experiment | "
-             "density in front (persons/m^2) | / experiment | all out |", "|---|---|---|---|---|---|---|---|---|"]
+             "last out: meshes (change) or seeds | density in front (persons/m^2) | / experiment | all out |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for r in table:
         lines.append(f"| {SETTINGS[r['setting']].label} | {r['width']:g} | {_number(r['flow'], 2)} | "
                      f"{_number(r['flow_ratio'], 2)} | {_number(r['last_out'], 1)} | "
-                     f"{_number(r['last_out_ratio'], 2)} | {_number(r['front_density'], 2)} | "
+                     f"{_number(r['last_out_ratio'], 2)} | {r['last_out_runs']} | {_number(r['front_density'], 2)} | "
                      f"{_number(r['front_density_ratio'], 2)} | {r['all_out']} |")
     lines += ["", "experiment: " + "; ".join(
         f"{w:g} m: {e['persons']:g} persons, last out {e['last_out_s']:g} s, mean flow {e['flow']:g} persons/s"

@@ -90,7 +90,7 @@ def test_the_table_takes_the_finest_mesh_or_the_seeds_mean_and_divides_by_the_ex
     assert discs["flow"] == pytest.approx(1.7) and discs["last_out"] == pytest.approx(85.0)
     assert discs["flow_runs"] == "1.60-1.80 over 2 seeds"
     text = corridor.markdown(table)
-    assert "| 0.7 | 1.30 | 0.75 | 98.0 | 1.15 | 5.00 | n/a | 3/3 |" in text
+    assert "| 0.7 | 1.30 | 0.75 | 98.0 | 1.15 | 110.000 / 100.000 / 98.000 (2.0 %) | 5.00 | n/a | 3/3 |" in text
     assert "0.7 m: 148 persons, last out 85.44 s" in text
 
 
