@@ -125,3 +125,14 @@ def test_the_check_writes_its_table_and_its_runs(tmp_path):
     assert "| 1.2 |" in table and "| 1/1 |" in table and "170 persons" in table
     rows = (out / "corridor.csv").read_text().splitlines()
     assert len(rows) == 2 and rows[0].startswith("setting,width,level,seed")
+
+
+def test_the_papers_free_exit_passes_what_arrives(tmp_path):
+    """The paper's model has no door capacity: through the 0.7 m exit it passes the inflow itself, 2.943
+    persons/s while the queue would last, and everyone is out soon after the last arrival (50.3 s) and the
+    8 m walk (6 s at 1.34 m/s)."""
+    task = corridor.plan(["paper"], [0.7], 1, 1, tmp_path)[0]
+    row = corridor.run_task(task)
+    assert row["entered"] == pytest.approx(148, abs=1e-9) and row["all_out"]
+    assert row["flow"] == pytest.approx(corridor.default_inflow(), rel=1e-5)
+    assert 148 / 2.943 + 8 / 1.34 < row["last_out"] < 148 / 2.943 + 8 / 1.34 + 5
