@@ -226,14 +226,24 @@ def rimea(out, only, models, seeds, quiet):
 
 
 @main.command()
-@click.option("--out", type=click.Path(), default="validation-output", show_default=True,
-              help="Directory of the runs' table validation.csv, validation.md and validation.png, relative to "
-                   "the current directory.")
+@click.option("--scene", type=click.Choice(["bottleneck", "corridor"]), default="bottleneck", show_default=True,
+              help="bottleneck: the flow through bottlenecks of 0.5 to 2.4 m against the experiments the settings "
+                   "were calibrated on; corridor: femcrowd's independent check, a 1.8 m corridor with a narrowing "
+                   "of 0.7, 0.95, 1.2 or 1.8 m at its exit (the Hermes 2009 uni-directional runs), never used to "
+                   "calibrate anything.")
+@click.option("--out", type=click.Path(), default=None,
+              help="Directory of the runs' table, relative to the current directory (default: validation-output, "
+                   "or corridor-output for --scene corridor): validation.csv, validation.md and validation.png, or "
+                   "corridor.csv and corridor.md.")
 @click.option("--settings", default=None, metavar="S1,S2,...",
               help="Settings to run (default: all): paper, weidmann, pushing, capacity, recommended, discs-paper, "
                    "discs.")
 @click.option("--widths", callback=_floats("--widths"), metavar="W1,W2,...",
-              help="Bottleneck widths in m (default: 0.5,0.8,1,1.2,1.6,2,2.4).")
+              help="Bottleneck widths in m (default: 0.5,0.8,1,1.2,1.6,2,2.4), or the corridor's exit widths "
+                   "(default: 0.7,0.95,1.2,1.8, the experiment's).")
+@click.option("--inflow", type=float, default=None, metavar="PERSONS/S",
+              help="--scene corridor: persons per second arriving at the corridor's entrance (default: the mean "
+                   "flow of the experiment's run without a narrowing, 2.943).")
 @click.option("--levels", type=click.IntRange(1, 5), default=3, show_default=True,
               help="Meshes of the macro settings: the plan's and uniform refinements.")
 @click.option("--seeds", type=click.IntRange(1, 50), default=5, show_default=True,
@@ -243,8 +253,9 @@ def rimea(out, only, models, seeds, quiet):
 @scheduler_option
 @force_option
 @quiet_option
-def validate(out, settings, widths, levels, seeds, overrides, serial, scheduler, force, quiet):
-    """Flow through a bottleneck against its width, each model beside the experiments.
+def validate(scene, out, settings, widths, inflow, levels, seeds, overrides, serial, scheduler, force, quiet):
+    """Flow through a bottleneck against its width, each model beside the experiments;
+    or, with --scene corridor, femcrowd's independent check.
 
     A crowd of 90 waits in front of a corridor 2 m long and 0.5 ... 2.4 m
     wide; each setting (the paper's models, a speed law that pushes, door
@@ -254,6 +265,12 @@ def validate(out, settings, widths, levels, seeds, overrides, serial, scheduler,
     and validation.png (with the published experiments). docs/validation.md
     shows the result; all settings take about an hour on 2 cores.
 
+    With --scene corridor: people enter a corridor 8 m long and 1.8 m wide
+    and leave through an opening of 0.7, 0.95, 1.2 or 1.8 m in its end
+    wall; each setting's exit flow, last person out and density in front of
+    the exit, divided by the experiment's figures (docs/validation.md, "An
+    independent check"). Writes corridor.csv and corridor.md.
+
     \b
     --set changes a key in every run (after the setting's own keys), e.g.
     another fluctuation of the discs.
@@ -262,14 +279,27 @@ def validate(out, settings, widths, levels, seeds, overrides, serial, scheduler,
     Examples:
       femcrowd validate --settings pushing,capacity --widths 1.0 --levels 2 --out /tmp/validation
       femcrowd validate --settings discs-paper --widths 0.5 --set micro.fluctuation=2.5 --out /tmp/discs
+      femcrowd validate --scene corridor --settings recommended --widths 0.7 --levels 1 --serial
       femcrowd validate
     """
     from ..studies import validation as va
 
     clock = Stopwatch()
     chosen = tuple(s.strip() for s in settings.split(",")) if settings else tuple(va.SETTINGS)
-    table, text, root = va.validate(out, chosen, widths or va.WIDTHS, levels, seeds, overrides, serial, scheduler,
-                                    force, echo=click.echo, quiet=quiet)
+    if scene == "corridor":
+        from ..studies import corridor
+
+        table, text, root = corridor.check(out or "corridor-output", chosen, widths or tuple(corridor.runs()),
+                                           levels, seeds, overrides, inflow, serial, scheduler, force,
+                                           echo=click.echo, quiet=quiet)
+        click.echo("\n" + text)
+        click.echo(f"{len(table)} rows in {clock.seconds:.0f} s; table: {root / 'corridor.md'}, "
+                   f"runs: {root / 'corridor.csv'}")
+        return
+    if inflow is not None:
+        raise InputError("--inflow", None, inflow, "only for --scene corridor")
+    table, text, root = va.validate(out or "validation-output", chosen, widths or va.WIDTHS, levels, seeds,
+                                    overrides, serial, scheduler, force, echo=click.echo, quiet=quiet)
     click.echo("\n" + text)
     click.echo(f"{len(table)} rows in {clock.seconds:.0f} s; table: {root / 'validation.md'}, "
                f"runs: {root / 'validation.csv'}, plot: {root / 'validation.png'}")

@@ -123,25 +123,40 @@ def scene(width: float, root: Path) -> Path:
     return directory
 
 
+def queue(evacuated, total) -> np.ndarray:
+    """The steps while the queue lasts: 20 % to 80 % of the crowd out."""
+    return (evacuated >= 0.2 * total) & (evacuated <= 0.8 * total)
+
+
 def flow(times, evacuated, total):
     """Persons per second while the queue lasts: the least-squares slope of evacuated(t) between 20 % and
     80 % of the crowd out; a crowd that clogs before 80 % are out gets its mean flow over the run."""
-    window = (evacuated >= 0.2 * total) & (evacuated <= 0.8 * total)
+    window = queue(evacuated, total)
     if evacuated[-1] < 0.8 * total or window.sum() < 2:
         return float(evacuated[-1] / times[-1])
     return float(np.polyfit(times[window], evacuated[window], 1)[0])
 
 
-def run_task(task: Task) -> dict:
-    """One run, no files written: its flow, specific flow, people, cells and wall time."""
+def simulate(task: Task):
+    """One run of a task, no files written: the setting's keys, the study's --set keys, then the mesh level
+    (macro) or the seed (discs). Returns the run's Result."""
     setting = SETTINGS[task.setting]
     overrides = [*setting.overrides, *task.overrides] + ([f"micro.seed={task.seed}"] if setting.discs
                                                           else [f"mesh.refine={task.level}"])
+    return Simulation(load_case(task.case_dir, overrides)).run()
+
+
+def people_of(history) -> float:
+    """The crowd of a run at its start: the discs, or the mass."""
+    return float(history["count"][0] if "count" in history else history["mass"][0])
+
+
+def run_task(task: Task) -> dict:
+    """One run, no files written: its flow, specific flow, people, cells and wall time."""
     clock = Stopwatch()
-    simulation = Simulation(load_case(task.case_dir, overrides))
-    result = simulation.run()
+    result = simulate(task)
     h = result.history
-    people = float(h["count"][0] if "count" in h else h["mass"][0])
+    people = people_of(h)
     j = flow(h["time"], h["evacuated"], people)
     return {"setting": task.setting, "width": task.width, "level": task.level, "seed": task.seed,
             "cells": result.domain.ncells, "people": people, "evacuated": float(h["evacuated"][-1]),
@@ -150,56 +165,91 @@ def run_task(task: Task) -> dict:
             "max_overlap_r": float(result.summary.get("max_overlap_r", 0.0))}
 
 
-def plan(settings, widths, levels: int, seeds: int, root: Path, overrides=()) -> list:
-    """The runs of a validation: every setting at every width, on `levels` meshes or `seeds` seeds (overrides:
-    --set texts applied to every run, after the setting's own)."""
+def check_settings(settings) -> None:
+    """Every name one of SETTINGS, else the one-line error of --settings."""
     unknown = [s for s in settings if s not in SETTINGS]
     if unknown:
         raise InputError("--settings", None, unknown[0], f"unknown setting (settings: {', '.join(SETTINGS)})")
+
+
+def scene_tasks(directory, width: float, settings, levels: int, seeds: int, overrides=()) -> list:
+    """The runs of the settings on one scene's case directory: `levels` meshes (macro) or `seeds` seeds (discs),
+    each setting's case checked before any run."""
+    tasks = []
+    for name in settings:
+        discs = SETTINGS[name].discs
+        runs = [(0, seed) for seed in range(1, seeds + 1)] if discs else [(level, 0) for level in range(levels)]
+        load_case(directory, [*SETTINGS[name].overrides, *overrides])   # checked before any run
+        tasks += [Task(name, width, level, seed, str(directory), tuple(overrides), series=f"{name} w = {width:g} m",
+                       mesh=f"micro.seed={seed}" if discs else f"mesh.refine={level}")
+                  for level, seed in runs]
+    return tasks
+
+
+def plan(settings, widths, levels: int, seeds: int, root: Path, overrides=()) -> list:
+    """The runs of a validation: every setting at every width, on `levels` meshes or `seeds` seeds (overrides:
+    --set texts applied to every run, after the setting's own)."""
+    check_settings(settings)
     tasks = []
     for width in widths:
         if not 0.4 < width < 6.0:
             raise InputError("--widths", None, width, "expected widths between 0.4 m and 6 m")
-        directory = str(scene(width, root / "scenes"))
-        for name in settings:
-            runs = [(0, seed) for seed in range(1, seeds + 1)] if SETTINGS[name].discs \
-                else [(level, 0) for level in range(levels)]
-            load_case(directory, [*SETTINGS[name].overrides, *overrides])   # checked before any run
-            tasks += [Task(name, width, level, seed, directory, tuple(overrides), series=f"{name} w = {width:g} m",
-                           mesh=f"micro.seed={seed}" if SETTINGS[name].discs else f"mesh.refine={level}")
-                      for level, seed in runs]
+        tasks += scene_tasks(scene(width, root / "scenes"), width, settings, levels, seeds, overrides)
     return tasks
+
+
+def converged(name: str, values) -> tuple:
+    """A setting's value over its runs (in level or seed order) and how it was reached: the finest mesh's, with
+    every mesh's value and the change between the last two, or the mean over the seeds with their range."""
+    values = np.asarray(values, float)
+    if SETTINGS[name].discs:
+        return float(values.mean()), f"{values.min():.2f}-{values.max():.2f} over {len(values)} seeds"
+    spread = " / ".join(f"{v:.3f}" for v in values)
+    if len(values) > 1:   # the change between the last two meshes; one mesh has none to show
+        spread += f" ({100 * abs(values[-1] - values[-2]) / abs(values[-2]):.1f} %)"
+    return float(values[-1]), spread
+
+
+def groups(rows) -> list:
+    """The runs per setting and width, in the order of the rows, each sorted by level and seed:
+    [(setting, width, runs)]."""
+    return [(name, width, sorted((r for r in rows if r["setting"] == name and r["width"] == width),
+                                 key=lambda r: (r["level"], r["seed"])))
+            for name in dict.fromkeys(r["setting"] for r in rows)
+            for width in sorted({r["width"] for r in rows if r["setting"] == name})]
 
 
 def summarise(rows) -> list:
     """Per setting and width: the converged specific flow (finest mesh, or mean over the seeds), its change
     between the last two meshes (or the seeds' range) and how many runs let everyone out."""
     table = []
-    for name in dict.fromkeys(r["setting"] for r in rows):
-        for width in sorted({r["width"] for r in rows if r["setting"] == name}):
-            runs = sorted((r for r in rows if r["setting"] == name and r["width"] == width),
-                          key=lambda r: (r["level"], r["seed"]))
-            values = np.array([r["specific_flow"] for r in runs])
-            if SETTINGS[name].discs:
-                value, spread = float(values.mean()), f"{values.min():.2f}-{values.max():.2f} over {len(runs)} seeds"
-            else:
-                value = float(values[-1])
-                spread = " / ".join(f"{v:.3f}" for v in values)
-                if len(values) > 1:   # the change between the last two meshes; one mesh has none to show
-                    spread += f" ({100 * abs(values[-1] - values[-2]) / abs(values[-2]):.1f} %)"
-            table.append({"setting": name, "width": width, "specific_flow": value, "runs": spread,
-                          "all_out": f"{sum(r['all_out'] for r in runs)}/{len(runs)}",
-                          "cells": runs[-1]["cells"], "wall": sum(r["wall"] for r in runs)})
+    for name, width, runs in groups(rows):
+        value, spread = converged(name, [r["specific_flow"] for r in runs])
+        table.append({"setting": name, "width": width, "specific_flow": value, "runs": spread,
+                      "all_out": f"{sum(r['all_out'] for r in runs)}/{len(runs)}",
+                      "cells": runs[-1]["cells"], "wall": sum(r["wall"] for r in runs)})
     return table
 
 
-def experiments() -> list:
-    """The published figures of experiments.csv, as dicts (width_m and specific_flow as numbers)."""
+def write_rows(path: Path, rows) -> None:
+    """Every run of a study as a CSV file (written whole or not at all)."""
+    with replaced(path, sync=True) as tmp, open(tmp, "w", newline="") as f:
+        writer = csv.DictWriter(f, list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+#: the columns of experiments.csv that hold numbers (empty: not published, or not found)
+NUMBERS = ("width_m", "specific_flow", "flow", "persons", "last_out_s", "density_front")
+
+
+def experiments(kind: str | None = None) -> list:
+    """The published figures of experiments.csv (those of one `kind` if given: measured, guideline, fit, or
+    check, the figures of femcrowd's independent check), as dicts; the numbers as floats, None where empty."""
     with open(EXPERIMENTS, newline="") as f:
-        rows = list(csv.DictReader(f))
+        rows = [r for r in csv.DictReader(f) if kind is None or r["kind"] == kind]
     for r in rows:
-        r["width_m"] = float(r["width_m"]) if r["width_m"] else None
-        r["specific_flow"] = float(r["specific_flow"])
+        r.update({key: float(r[key]) if r[key] else None for key in NUMBERS})
     return rows
 
 
@@ -219,10 +269,7 @@ def validate(out, settings=tuple(SETTINGS), widths=WIDTHS, levels: int = 3, seed
     root = prepare_output_dir(Path(out), "--out", force)
     tasks = plan(settings, widths, levels, seeds, root, overrides)
     rows = execute(run_task, tasks, serial, scheduler, echo=echo, quiet=quiet)
-    with replaced(root / "validation.csv", sync=True) as tmp, open(tmp, "w", newline="") as f:
-        writer = csv.DictWriter(f, list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
+    write_rows(root / "validation.csv", rows)
     table = summarise(rows)
     text = markdown(table)
     write_text(root / "validation.md", text, sync=True)
