@@ -6,7 +6,8 @@ series gives the converged times t50, t90, t99 and t_all by Richardson's estimat
 level of every series is then printed with its steps, CPU seconds and the error (%) of each time, and the
 fastest point (CPU seconds) whose four errors are all within 1 %. Scenes: cases/room; the 1 m bottleneck of
 docs/validation.md and the 40 x 30 m hall of benchmarks/peer.py (made there, under benchmarks/.cache/peer), the
-paper's model (constant speed) and, for the bottleneck, the recommended settings (explicit LWR fluxes).
+paper's model (constant speed) and, for the bottleneck, the recommended settings (explicit LWR fluxes, and
+the linearly implicit ones at the median cell's step).
 
     python benchmarks/frontier.py --scenes room
 """
@@ -33,7 +34,8 @@ SCENES = {
     "bottleneck": (lambda: peer.scene("bottleneck", 90)[0], [
         ("upwind", [], [1]), ("implicit, median cell", RULE, [1, 2, 4])]),
     "bottleneck-recommended": (lambda: peer.scene("bottleneck", 90)[0], [
-        ("recommended (LWR)", RECOMMENDED, [1]), ("recommended (LWR)", RECOMMENDED, [0.5])]),
+        ("recommended (LWR)", RECOMMENDED, [1]), ("recommended (LWR)", RECOMMENDED, [0.5]),
+        ("recommended, implicit LWR, median cell", RECOMMENDED + RULE, [1, 4])]),
     "hall": (lambda: peer.scene("hall", 100)[0], [("implicit, median cell", RULE, [1]), ("upwind", [], [1])]),
 }
 
