@@ -174,7 +174,8 @@ SCHEMA = {
     "scheme": {
         "transport": Key("upwind", "choice", "the prediction: order-0 upwind; limited linear reconstruction with "
                          "SSP-RK2 (muscl) or one Euler stage (compressive); backward-Euler upwind, positive at any "
-                         "time step (implicit)", registry.transports),
+                         "time step (implicit; with a speed law linearly implicit, the speed of the step's start)",
+                         registry.transports),
     },
     "exact": Key(None, "exact", "the exact solution of the case, the reference of femcrowd convergence: "
                  "{ name = ..., and its parameters }, e.g. { name = \"saturated-evacuation\", k = 1.0, s0 = 1.0 }"),

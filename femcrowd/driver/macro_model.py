@@ -8,6 +8,7 @@ from ..linalg.vectors import dot
 from ..macro import MacroSolver, MacroState
 from ..macro.diagnostics import invariants, population_invariants
 from ..macro.solver import MacroStep
+from ..macro.transport import LWR_TRANSPORTS
 from .checkpoint import parts, restore_parts
 from .measurements import MacroMeasurements
 from .model import SOURCE_COLUMNS, Evacuation, landing
@@ -91,9 +92,10 @@ class MacroModel:
         with scene.timer("assembly"):
             populations = scene.populations
             laws = [p.law for p in populations]
-            if case["scheme"]["transport"] != "upwind" and not all(law.constant for law in laws):
+            if case["scheme"]["transport"] not in LWR_TRANSPORTS and not all(law.constant for law in laws):
                 raise InputError(case.file, "scheme.transport", case["scheme"]["transport"],
-                                 "a speed law is transported with the order-0 LWR fluxes: use 'upwind'")
+                                 "a speed law is transported with the order-0 LWR fluxes: use 'upwind' or "
+                                 "'implicit'")
             self.state = MacroState.initial(initial_densities(case, domain), len(domain.exit_names),
                                             [p.name for p in populations])
             self.solver = MacroSolver(domain, scene.boundary, [p.velocity for p in populations],

@@ -27,7 +27,7 @@ from .projection import CellOrder, PressureFlux, Projection
 from .reconstruction import CellMean, actual_velocity
 from .seen_density import SeenDensity
 from .state import MacroState
-from .transport import TRANSPORTS
+from .transport import LWR_TRANSPORTS, TRANSPORTS
 from .transport.lwr import LWRTransport, joint_max_dt
 from .velocity import CongestionVelocity
 
@@ -62,9 +62,11 @@ class MacroSolver:
         for velocity in self.routing:
             velocity.seen = seen
         self.laws = [None if law is None or law.constant else law for law in (laws or [None] * len(self.velocities))]
-        #: False when every population has f(1) = 0: the density stays <= 1 without the projection
-        self.needs_projection = any(law is None or law.saturates for law in self.laws)
+        #: False when every population has f(1) = 0 and the LWR step is explicit: the density stays <= 1
+        #: without the projection
+        self.needs_projection = transport == "implicit" or any(law is None or law.saturates for law in self.laws)
         self.transport_class = TRANSPORTS[transport]
+        self.lwr_class = LWR_TRANSPORTS.get(transport, LWRTransport)
         self.cfl, self.fixed_dt, self.quantile = cfl, dt, quantile
         self.direct_max, self.tol = direct_max, tol
         self.order = CellOrder()  # one nested-dissection order for the projections of every set of exits
@@ -81,7 +83,7 @@ class MacroSolver:
         versions = tuple(v.version(state, exits) for v in self.velocities)
         built = self._transports
         if built is None or built[0] is not exits or built[1] != versions:
-            schemes = [LWRTransport(self.domain, exits, v.normal_on_facets(state, exits), law) if law is not None
+            schemes = [self.lwr_class(self.domain, exits, v.normal_on_facets(state, exits), law) if law is not None
                        else self.transport_class(self.domain, exits, v.normal_on_facets(state, exits),
                                                  v.potential(exits))
                        for v, law in zip(self.velocities, self.laws)]
@@ -110,7 +112,7 @@ class MacroSolver:
         (negative densities, lost mass).
         """
         schemes = self.transports(state, self.boundary.at(state.t))
-        lwr = [s for s in schemes if isinstance(s, LWRTransport)]
+        lwr = [s for s in schemes if type(s) is LWRTransport]   # the explicit ones
         # the bound of the total density takes every population's flux into a cell
         joint = joint_max_dt(self.domain, lwr) if len(lwr) > 1 else np.inf
         if self.fixed_dt is None:

@@ -51,13 +51,13 @@ def crossing(domain, rho, level, x0, x1, samples=256):
     return float(xs[k] + profile[k] / (profile[k] - profile[k + 1]) * (xs[k + 1] - xs[k]))
 
 
-def lwr_riemann(levels=4, kind="shock"):
-    """cases/lwr-shock or cases/lwr-fan on `levels` refinements: L1 error of the density at t = 1, the
-    shock position (kind "shock") or the fan's mid-point position (where rho = (left + right) / 2)."""
+def lwr_riemann(levels=4, kind="shock", overrides=None):
+    """cases/lwr-shock or cases/lwr-fan on `levels` refinements (with `overrides`, a dict): L1 error of the density
+    at t = 1, the shock position (kind "shock") or the fan's mid-point position (where rho = (left + right) / 2)."""
     exact = LWRRiemann(0.1, 0.7) if kind == "shock" else LWRRiemann(0.9, 0.1)
     rows = []
     for level in range(levels):
-        result, seconds = run_level(shipped.cases(f"lwr-{kind}"), level)
+        result, seconds = run_level(shipped.cases(f"lwr-{kind}"), level, overrides)
         domain, state = result.domain, result.state
         reference = domain.cell_average(exact.density, t=state.t)
         mid = (exact.left + exact.right) / 2

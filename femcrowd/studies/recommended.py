@@ -14,8 +14,8 @@
 - STEP (``[time] cfl``, macro only): the step of the explicit LWR fluxes at their whole CFL step, 1, not the
   schema's 0.5: at the 1 m bottleneck of ``femcrowd validate`` the evacuation times at 50, 90, 99 % and all
   out change by at most 0.03 % from cfl 0.5 on each of two meshes, a fortieth of the change between the meshes,
-  in half the steps (docs/performance.md, "The evacuation time against run time"). The implicit transport and
-  its larger steps (``time.cfl_quantile``) do not take a speed law.
+  in half the steps (docs/performance.md, "The evacuation time against run time"). The implicit transport takes
+  a speed law (linearly implicit, docs/model.md "Steps by accuracy") but is not recommended: see performance.md.
 - The discs (``model.type = "micro"``, which has no door capacity): the same law and push from the density
   each disc sees, the decelerating strategy of Maury et al. (2011) and an arch-breaking fluctuation
   FLUCTUATION (m/s, docs/micro.md): the smallest of those tried (0.5, 1.0) that lets every disc of

@@ -7,10 +7,11 @@ computed only when asked), ``max_dt`` (the CFL-1 step of the upwind scheme for t
 ``max_cfl`` (the largest fraction of it the scheme accepts). ``TRANSPORTS`` is the one list of
 schemes: ``[scheme] transport`` of a case takes its keys. ``LWRTransport`` (the fluxes of a speed
 that depends on the density, built with the law instead of a potential) is chosen by
-``[velocity] speed_law``, not by name.
+``[velocity] speed_law``, not by name; ``LWR_TRANSPORTS`` gives the speed-law scheme of each transport that has
+one (``implicit``: the linearly implicit ``ImplicitLWRTransport``).
 """
 
-from .implicit import ImplicitUpwindTransport
+from .implicit import ImplicitLWRTransport, ImplicitUpwindTransport
 from .lwr import LWRTransport
 from .muscl import CompressiveTransport, MUSCLTransport
 from .upwind import UpwindTransport
@@ -19,6 +20,9 @@ from .upwind import UpwindTransport
 #: backward-Euler upwind (any time step)
 TRANSPORTS = {"upwind": UpwindTransport, "muscl": MUSCLTransport, "compressive": CompressiveTransport,
               "implicit": ImplicitUpwindTransport}
+#: the scheme of a population with a speed law, per [scheme] transport (the others refuse a speed law)
+LWR_TRANSPORTS = {"upwind": LWRTransport, "implicit": ImplicitLWRTransport}
 
-__all__ = ["TRANSPORTS", "CompressiveTransport", "ImplicitUpwindTransport", "LWRTransport", "MUSCLTransport",
+__all__ = ["LWR_TRANSPORTS", "TRANSPORTS", "CompressiveTransport", "ImplicitLWRTransport",
+           "ImplicitUpwindTransport", "LWRTransport", "MUSCLTransport",
            "UpwindTransport"]
