@@ -81,7 +81,7 @@ SCHEMA = {
         "capacity": Key({}, "capacities", "the most a door lets through, persons per metre per second (density unit "
                         "x m/s): a table of door names (exits, or interior physical line groups: doors between two "
                         "rooms) to capacities, e.g. { exit = 1.9 }, or 'auto': the capacity of the door's width "
-                        "(1.9 up to 1.2 m, 2.5 from 2.4 m, linear between: Seyfried et al. 2009, Liao et al. 2014; "
+                        "(2.08 up to 1.2 m, 2.57 from 2.4 m, linear between: the means of the bottleneck experiments, "
                         "mesh/capacity.py); while a door is at capacity the crowd behind it "
                         "queues and pushes on it as on a wall (default: no cap, the free exit of the paper)"),
     },

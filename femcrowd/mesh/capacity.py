@@ -27,10 +27,11 @@ import numpy as np
 import scipy.sparse as sp
 
 #: ``capacity = "auto"``: the specific flow of the bottleneck experiments, persons/(m s), at a narrow door (up to
-#: NARROW m: Seyfried et al. 2009, 1.90 at 1.0 m; Kretz et al. 2006, 1.79 to 1.85 at 0.7 to 1.2 m) and at a wide
-#: one (from WIDE m: Liao et al. 2014, 2.39 to 2.76 at 2.4 to 5.0 m, mean 2.53); femcrowd/studies/experiments.csv
-NARROW, NARROW_CAPACITY = 1.2, 1.9
-WIDE, WIDE_CAPACITY = 2.4, 2.5
+#: NARROW m: the mean of the 19 measured figures at 0.8 to 1.2 m, Kretz et al. 2006, Seyfried et al. 2009, Mueller
+#: 1981, Liddle et al. 2011) and at a wide one (from WIDE m: the mean of the 10 at 2.4 to 5 m, Liao et al. 2014,
+#: Mueller 1981, Liddle et al. 2011); femcrowd/studies/experiments.csv
+NARROW, NARROW_CAPACITY = 1.2, 2.08
+WIDE, WIDE_CAPACITY = 2.4, 2.57
 
 
 def width_capacity(width):
