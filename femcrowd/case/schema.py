@@ -44,7 +44,9 @@ class NamedTables:
 
 #: speed_law: the factor f(rho) of the desired speed (macro/speed_law.py)
 SPEED_LAW_DOC = ('the desired speed is f(rho) x speed: "constant" (f = 1), "linear" (f = 1 - rho/rho_max), '
-                 '"weidmann" (Weidmann 1993, rho_max in persons/m^2) or an expression in rho (in units of rho_max, '
+                 '"weidmann" (Weidmann 1993, rho_max in persons/m^2), "predtechenskii" (Predtechenskii, Milinskii '
+                 '1978, horizontal paths, 0.1 m^2 per person, rho_max in persons/m^2; f(rho_max) > 0 without a push) '
+                 'or an expression in rho (in units of rho_max, '
                  '0..1); f non-increasing in [0, 1]; f(1) = 0: the projection is never needed')
 #: push: the least factor of the speed law (macro/speed_law.py)
 PUSH_DOC = ("people in a jam still push at push x speed: the speed law's f never falls below it, so f(1) > 0 and "
@@ -78,7 +80,9 @@ SCHEMA = {
                     "a closed exit is a wall (default: always open)"),
         "capacity": Key({}, "capacities", "the most a door lets through, persons per metre per second (density unit "
                         "x m/s): a table of door names (exits, or interior physical line groups: doors between two "
-                        "rooms) to capacities, e.g. { exit = 1.9 }; while a door is at capacity the crowd behind it "
+                        "rooms) to capacities, e.g. { exit = 1.9 }, or 'auto': the capacity of the door's width "
+                        "(2.08 up to 1.2 m, 2.57 from 2.4 m, linear between: the means of the bottleneck experiments, "
+                        "mesh/capacity.py); while a door is at capacity the crowd behind it "
                         "queues and pushes on it as on a wall (default: no cap, the free exit of the paper)"),
     },
     "model": {
@@ -369,9 +373,9 @@ def _capacities(spec, value):
     if not isinstance(value, dict):
         raise Refused("expected a table of door names to capacities (persons per metre per second)")
     for name, c in value.items():
-        if not is_number(c) or not math.isfinite(c) or c <= 0:
-            raise Refused("expected a capacity > 0 (persons per metre per second)", name, c)
-    return {name: float(c) for name, c in value.items()}
+        if c != "auto" and (not is_number(c) or not math.isfinite(c) or c <= 0):
+            raise Refused('expected a capacity > 0 (persons per metre per second) or "auto"', name, c)
+    return {name: c if c == "auto" else float(c) for name, c in value.items()}
 
 
 def _schedules(spec, value):

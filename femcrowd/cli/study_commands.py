@@ -236,11 +236,11 @@ def rimea(out, only, models, seeds, quiet):
                    "or corridor-output for --scene corridor): validation.csv, validation.md and validation.png, or "
                    "corridor.csv and corridor.md.")
 @click.option("--settings", default=None, metavar="S1,S2,...",
-              help="Settings to run (default: all): paper, weidmann, pushing, capacity, recommended, discs-paper, "
-                   "discs.")
+              help="Settings to run (default: all): paper, weidmann, pushing, capacity, recommended, predtechenskii, "
+                   "discs-paper, discs.")
 @click.option("--widths", callback=_floats("--widths"), metavar="W1,W2,...",
-              help="Bottleneck widths in m (default: 0.5,0.8,1,1.2,1.6,2,2.4), or the corridor's exit widths "
-                   "(default: 0.7,0.95,1.2,1.8, the experiment's).")
+              help="Bottleneck widths in m (default: 0.5,0.8,1,1.2,1.6,2,2.4,3,3.6,4.4,5), or the corridor's exit "
+                   "widths (default: 0.7,0.95,1.2,1.8, the experiment's).")
 @click.option("--inflow", type=float, default=None, metavar="PERSONS/S",
               help="--scene corridor: persons per second arriving at the corridor's entrance (default: the mean "
                    "flow of the experiment's run without a narrowing, 2.943).")
@@ -248,19 +248,24 @@ def rimea(out, only, models, seeds, quiet):
               help="Meshes of the macro settings: the plan's and uniform refinements.")
 @click.option("--seeds", type=click.IntRange(1, 50), default=5, show_default=True,
               help="Seeds of the disc settings.")
+@click.option("--diagram", is_flag=True,
+              help="Instead of the bottleneck: speed and specific flow against density in RiMEA test 4's corridor, "
+                   "each macro setting with a speed law beside the law's published diagram (diagram.csv, diagram.md).")
 @set_option
 @serial_option
 @scheduler_option
 @force_option
 @quiet_option
-def validate(scene, out, settings, widths, inflow, levels, seeds, overrides, serial, scheduler, force, quiet):
+def validate(scene, out, settings, widths, inflow, levels, seeds, diagram, overrides, serial, scheduler, force,
+             quiet):
     """Flow through a bottleneck against its width, each model beside the experiments;
     or, with --scene corridor, femcrowd's independent check.
 
     A crowd of 90 waits in front of a corridor 2 m long and 0.5 ... 2.4 m
-    wide; each setting (the paper's models, a speed law that pushes, door
-    capacities, the recommended settings, arch-breaking discs) runs on three
-    meshes or five seeds. Writes
+    wide (wider: the same scene magnified); each setting (the paper's
+    models, a speed law that pushes, door capacities, the recommended
+    settings, Predtechenskii and Milinskii's law with capacities of the
+    width, arch-breaking discs) runs on three meshes or five seeds. Writes
     validation.csv (every run), validation.md (specific flows, converged)
     and validation.png (with the published experiments). docs/validation.md
     shows the result; all settings take about an hour on 2 cores.
@@ -280,11 +285,24 @@ def validate(scene, out, settings, widths, inflow, levels, seeds, overrides, ser
       femcrowd validate --settings pushing,capacity --widths 1.0 --levels 2 --out /tmp/validation
       femcrowd validate --settings discs-paper --widths 0.5 --set micro.fluctuation=2.5 --out /tmp/discs
       femcrowd validate --scene corridor --settings recommended --widths 0.7 --levels 1 --serial
+      femcrowd validate --diagram --settings predtechenskii --out /tmp/diagram
       femcrowd validate
     """
     from ..studies import validation as va
 
     clock = Stopwatch()
+    if diagram and scene == "corridor":
+        raise InputError("--diagram", None, True, "not with --scene corridor: the diagram has its own corridor")
+    if diagram:
+        from ..studies import diagram as fd
+
+        chosen = tuple(s.strip() for s in settings.split(",")) if settings else None
+        table, text, root = fd.diagram(out or "validation-output", chosen, levels=levels, overrides=overrides,
+                                       serial=serial, scheduler=scheduler, force=force, echo=click.echo, quiet=quiet)
+        click.echo("\n" + text)
+        click.echo(f"{len(table)} rows in {clock.seconds:.0f} s; table: {root / 'diagram.md'}, "
+                   f"runs: {root / 'diagram.csv'}")
+        return
     chosen = tuple(s.strip() for s in settings.split(",")) if settings else tuple(va.SETTINGS)
     if scene == "corridor":
         from ..studies import corridor

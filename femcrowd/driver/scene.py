@@ -13,6 +13,7 @@ import numpy as np
 from ..case import Case
 from ..errors import InputError
 from ..mesh import Boundary, Domain, load_domain
+from ..mesh.capacity import width_capacity
 from ..micro.sampling import overlaps, read_discs_csv, sample_discs
 from ..timer import Timer
 from .measurements import read_measurements
@@ -92,7 +93,7 @@ ONE_STAGE = ("upwind", "compressive")
 
 def door_capacity(case: Case, domain: Domain) -> dict:
     """[boundary.capacity], its names checked against the mesh (an exit, or an interior line group), in units of
-    rho_max x m/s."""
+    rho_max x m/s; "auto": the capacity of the door's width (its length in the mesh, mesh/capacity.py)."""
     capacity = case["boundary"]["capacity"]
     for name, value in capacity.items():
         key = f"boundary.capacity.{name}"
@@ -109,7 +110,9 @@ def door_capacity(case: Case, domain: Domain) -> dict:
         if case["scheme"]["transport"] not in ONE_STAGE:
             raise InputError(case.file, key, value, "a capacity on an interior door needs a one-stage transport "
                              f"(scheme.transport = {' or '.join(map(repr, ONE_STAGE))})")
-    return {name: value / case["model"]["rho_max"] for name, value in capacity.items()}
+    width = {name: float(domain.length[domain.groups[name]].sum()) for name in capacity}
+    persons = {name: width_capacity(width[name]) if value == "auto" else value for name, value in capacity.items()}
+    return {name: value / case["model"]["rho_max"] for name, value in persons.items()}
 
 
 def initial_discs(case: Case, domain: Domain, exits, rho=None) -> tuple[np.ndarray, np.ndarray]:

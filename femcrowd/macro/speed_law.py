@@ -11,7 +11,11 @@ exceeds 1 (no projection is needed); if f(1) > 0 people still push and the proje
 Laws (``[velocity] speed_law``): "constant" (f = 1, the model of docs/model.md), "linear"
 (f = 1 - rho), "weidmann" (Weidmann 1993: v = v0 (1 - exp(-gamma (1/rho - 1/rho_max))),
 gamma = 1.913 m^-2, rho in persons/m^2 and rho_max = model.rho_max, 5.4 m^-2 in Weidmann's
-fit; v0 is velocity.speed) or an expression in rho. A law is sampled once on [0, 1]: its
+fit; v0 is velocity.speed), "predtechenskii" (Predtechenskii, Milinskii 1978, as tabulated for
+horizontal paths in GOST 12.1.004-91, appendix 2: the speed v(D) against the projected density
+D = a rho, a = 0.1 m^2 per person, the flow D v interpolated linearly as the standard's method does;
+f = v(D) / v(0), and f = 15/100 for D >= 0.9: people still move in the densest crowd, so f(1) > 0
+with no push) or an expression in rho. A law is sampled once on [0, 1]: its
 range, monotonicity, the maximiser r* of g and whether g is unimodal (increasing, then
 decreasing), and its Lipschitz constant (for the CFL condition).
 
@@ -29,12 +33,28 @@ from ..expressions import Expression, ExpressionError
 
 #: Weidmann (1993), the fundamental diagram of pedestrian flow on a level floor
 WEIDMANN_GAMMA = 1.913  # m^-2
+#: Predtechenskii and Milinskii (1978), horizontal paths, as the Russian fire-safety methods tabulate them (GOST
+#: 12.1.004-91, appendix 2; femcrowd/studies/experiments.csv says where it was read): the projected density D (m^2
+#: of bodies per m^2 of floor) and the speed v (m/min) of a crowd at D; "0.9 and more": v = 15 m/min
+PM_DENSITY = np.array([0.01, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9])
+PM_SPEED = np.array([100.0, 100.0, 80.0, 60.0, 47.0, 40.0, 33.0, 27.0, 23.0, 19.0, 15.0])
+#: the horizontal projection of a person, m^2 (an adult in home clothing; 0.125 in winter clothing): D = PM_AREA x
+#: persons/m^2
+PM_AREA = 0.1
 #: the names of the laws; anything else is an expression in rho
-NAMES = ("constant", "linear", "weidmann")
+NAMES = ("constant", "linear", "weidmann", "predtechenskii")
 #: samples of [0, 1] on which a law is checked and its constants are measured
 SAMPLES = 4097
 #: margin on the sampled Lipschitz constant of g (the CFL condition uses it)
 LIPSCHITZ_MARGIN = 1.01
+
+
+def predtechenskii(density):
+    """v(D), m/min: Predtechenskii and Milinskii's speed on a horizontal path at the projected density D
+    (PM_DENSITY, PM_SPEED): the flow q = D v linear between the tabulated densities (so that q is unimodal and
+    v non-increasing), v constant below the first and above the last."""
+    d = np.clip(density, PM_DENSITY[0], PM_DENSITY[-1])
+    return np.minimum(np.interp(d, PM_DENSITY, PM_DENSITY * PM_SPEED) / d, PM_SPEED[0])   # v(0.01) / 0.01 rounds
 
 
 class LawError(ValueError):
@@ -58,6 +78,8 @@ class SpeedLaw:
         elif spec == "weidmann":
             c = WEIDMANN_GAMMA / rho_max
             self._f = lambda r: np.where(r > 0, -np.expm1(-c * (1.0 / np.maximum(r, 1e-300) - 1.0)), 1.0)
+        elif spec == "predtechenskii":
+            self._f = lambda r: predtechenskii(PM_AREA * rho_max * r) / PM_SPEED[0]
         else:
             try:
                 expression = Expression(spec, variables=("rho",), origin=origin)

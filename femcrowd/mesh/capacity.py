@@ -26,6 +26,19 @@ each of its facets e in a step of length tau, in either direction.
 import numpy as np
 import scipy.sparse as sp
 
+#: ``capacity = "auto"``: the specific flow of the bottleneck experiments, persons/(m s), at a narrow door (up to
+#: NARROW m: the mean of the 19 measured figures at 0.8 to 1.2 m, Kretz et al. 2006, Seyfried et al. 2009, Mueller
+#: 1981, Liddle et al. 2011) and at a wide one (from WIDE m: the mean of the 10 at 2.4 to 5 m, Liao et al. 2014,
+#: Mueller 1981, Liddle et al. 2011); femcrowd/studies/experiments.csv
+NARROW, NARROW_CAPACITY = 1.2, 2.08
+WIDE, WIDE_CAPACITY = 2.4, 2.57
+
+
+def width_capacity(width):
+    """The capacity of a door of this width (m), persons/(m s): NARROW_CAPACITY up to NARROW, WIDE_CAPACITY from
+    WIDE, linear in between (an interpolation: no experiment at 1.2 to 2.4 m says more; docs/validation.md)."""
+    return np.interp(width, [NARROW, WIDE], [NARROW_CAPACITY, WIDE_CAPACITY])
+
 
 class Capacities:
     """The capped facets of the open doors: their cells, their rates c |e|, and the door nodes of the projection.

@@ -22,7 +22,11 @@
   radius 0.2 m through the 0.5 m and 1 m bottlenecks in each of five seeds.
 """
 
+from ..macro.speed_law import PM_SPEED
+
 DOOR_CAPACITY = 1.9
+#: the free speed of Predtechenskii and Milinskii's law, m/s (100 m/min: their speed up to D = 0.05)
+PM_FREE_SPEED = float(PM_SPEED[0]) / 60.0
 PUSH = 0.2
 FLUCTUATION = 0.5
 
@@ -31,6 +35,9 @@ SPEED = {"velocity.speed_law": "weidmann", "velocity.push": PUSH}
 WALLS = {"velocity.walls": "slip"}
 #: the recommended time step of the density model
 STEP = {"time.cfl": 1.0}
+#: a law that carries the flows of wide doors (macro/speed_law.py: Predtechenskii, Milinskii 1978; f(rho_max) > 0,
+#: no push), with the capacity of each door's width ("auto", mesh/capacity.py): femcrowd validate's "predtechenskii"
+CARRYING = {"velocity.speed_law": "predtechenskii", "velocity.speed": PM_FREE_SPEED, **WALLS}
 #: the recommended desired velocity and step of the density model
 MACRO = {**SPEED, **WALLS, **STEP}
 DISCS = {**SPEED, "micro.strategy": "decelerate", "micro.fluctuation": FLUCTUATION}

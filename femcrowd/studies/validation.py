@@ -2,12 +2,14 @@
 experiments (``femcrowd validate``, docs/validation.md).
 
 The scene: a waiting area of 8 m x 6 m, a crowd of 2.5 persons/m^2 on its first 6 m (90 persons), a
-corridor 2 m long and w wide (0.5 ... 2.4 m), its far end the exit: the geometry of the Juelich bottleneck
-experiments (Seyfried et al. 2009; Liao et al. 2014). Desired speed 1.34 m/s, rho_max = 5.4 persons/m^2
-(Weidmann 1993). The flow J is the slope of the people out against time while the queue lasts (from 20 %
-to 80 % of the crowd out), the specific flow J / w. Every macro setting runs on three meshes (the plan's
-mesh and two uniform refinements), the disc settings on five seeds; the converged value quoted is the
-finest mesh's, with its change from the mesh before.
+corridor 2 m long and w wide (0.5 ... 5 m), its far end the exit: the geometry of the Juelich bottleneck
+experiments (Seyfried et al. 2009; Liao et al. 2014). Beyond 2.4 m the scene of 2.4 m is magnified by
+w / 2.4 (every length, the crowd's area and the mesh size: 390 persons at 5 m), so that a wide door has a
+queue as long (in time) as the 2.4 m one. Desired speed 1.34 m/s (the setting "predtechenskii": its law's
+1.67 m/s), rho_max = 5.4 persons/m^2 (Weidmann 1993). The flow J is the slope of the people out against
+time while the queue lasts (from 20 % to 80 % of the crowd out), the specific flow J / w. Every macro
+setting runs on three meshes (the plan's mesh and two uniform refinements), the disc settings on five
+seeds; the converged value quoted is the finest mesh's, with its change from the mesh before.
 
 The experiments are femcrowd/studies/experiments.csv: each row a published figure, its source, where in
 the source and how it was read.
@@ -28,20 +30,23 @@ from ..mesh.floorplan import build_mesh
 from ..plot.validation import flows_plot
 from ..timer import Stopwatch
 from .execute import execute
-from .recommended import DISCS, DOOR_CAPACITY, MACRO, PUSH, SPEED, door_capacity
+from .recommended import CARRYING, DISCS, DOOR_CAPACITY, MACRO, PUSH, SPEED, door_capacity
 
 #: the published figures (source, year, width_m, specific_flow, flow, kind, where, note)
 EXPERIMENTS = Path(__file__).with_name("experiments.csv")
 #: widths of the bottleneck, m
-WIDTHS = (0.5, 0.8, 1.0, 1.2, 1.6, 2.0, 2.4)
-PLAN = """size = 0.25
+WIDTHS = (0.5, 0.8, 1.0, 1.2, 1.6, 2.0, 2.4, 3.0, 3.6, 4.4, 5.0)
+#: the widest bottleneck of the scene at its own size, m; a wider one is this scene magnified
+LARGEST = 2.4
+PLAN = """size = {size:g}
 [outer]
-points = [[0, 0], [8, 0], [8, {low}], [10, {low}], [10, {high}], [8, {high}], [8, 6], [0, 6]]
+points = [[0, 0], [{area:g}, 0], [{area:g}, {low}], [{end:g}, {low}], [{end:g}, {high}], [{area:g}, {high}],
+          [{area:g}, {height:g}], [0, {height:g}]]
 [[exits]]
 name = "exit"
-from = [10, {low}]
-to = [10, {high}]
-size = 0.1
+from = [{end:g}, {low}]
+to = [{end:g}, {high}]
+size = {exit_size:g}
 """
 CASE = """title = "Bottleneck {width:g} m: a waiting crowd of 2.5 persons/m^2 (femcrowd validate)"
 [mesh]
@@ -53,7 +58,7 @@ rho_max = 5.4                 # persons/m^2 (Weidmann 1993)
 [velocity]
 speed = 1.34                  # m/s, Weidmann's free speed
 [initial]
-density = "2.5 * (x < 6)"     # persons/m^2
+density = "2.5 * (x < {crowd:g})"     # persons/m^2
 [time]
 end = 200.0
 [output]
@@ -88,6 +93,8 @@ SETTINGS = {
     "capacity": Setting(f"macro, constant speed, door capacity {DOOR_CAPACITY:g} /(m s)", (_capacity(),)),
     "recommended": Setting(f"macro, Weidmann's law, push {PUSH:g}, door capacity {DOOR_CAPACITY:g} /(m s) "
                            "(recommended)", (*_set(MACRO), _capacity())),
+    "predtechenskii": Setting("macro, Predtechenskii-Milinskii law, door capacity of the width (auto)",
+                              _set(CARRYING) + ('boundary.capacity={exit="auto"}',)),
     "discs-paper": Setting("discs r = 0.2 m, pushing (the paper's discs)",
                            ("model.type=micro", "micro.radius=0.2"), discs=True),
     "discs": Setting(f"discs r = 0.2 m, Weidmann's law, push {PUSH:g}, decelerating, fluctuation "
@@ -117,9 +124,12 @@ def scene(width: float, root: Path) -> Path:
     directory = Path(root) / f"bottleneck-{width:g}"
     if not (directory / "case.toml").exists():
         make_directory(directory, own=True)
-        write_text(directory / "bottleneck.toml", PLAN.format(low=3 - width / 2, high=3 + width / 2))
+        s = max(1.0, width / LARGEST)
+        write_text(directory / "bottleneck.toml", PLAN.format(
+            size=0.25 * s, area=8 * s, end=10 * s, low=3 * s - width / 2, high=3 * s + width / 2, height=6 * s,
+            exit_size=0.1 * s))
         build_mesh(directory / "bottleneck.toml", directory / "bottleneck.msh")
-        write_text(directory / "case.toml", CASE.format(width=width))
+        write_text(directory / "case.toml", CASE.format(width=width, crowd=6 * s))
     return directory
 
 
@@ -240,12 +250,13 @@ def write_rows(path: Path, rows) -> None:
 
 
 #: the columns of experiments.csv that hold numbers (empty: not published, or not found)
-NUMBERS = ("width_m", "specific_flow", "flow", "persons", "last_out_s", "density_front")
+NUMBERS = ("width_m", "specific_flow", "flow", "density", "speed", "persons", "last_out_s", "density_front")
 
 
 def experiments(kind: str | None = None) -> list:
-    """The published figures of experiments.csv (those of one `kind` if given: measured, guideline, fit, or
-    check, the figures of femcrowd's independent check), as dicts; the numbers as floats, None where empty."""
+    """The published figures of experiments.csv (those of one `kind` if given: measured, guideline, fit,
+    diagram (fundamental-diagram figures: density, speed), or check, the figures of femcrowd's independent
+    check), as dicts; the numbers as floats, None where empty."""
     with open(EXPERIMENTS, newline="") as f:
         rows = [r for r in csv.DictReader(f) if kind is None or r["kind"] == kind]
     for r in rows:

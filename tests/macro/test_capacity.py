@@ -15,6 +15,7 @@ from femcrowd.macro.diagnostics import invariants
 from femcrowd.macro.projection import Projection
 from femcrowd.macro.velocity import FieldVelocity
 from femcrowd.mesh import Boundary
+from femcrowd.mesh.capacity import width_capacity
 from femcrowd.mesh.floorplan import build_mesh
 
 from ..support import CASES, unit_square
@@ -210,3 +211,32 @@ def test_info_estimates_a_case_with_capacities():
     result = CliRunner().invoke(main, ["info", str(CASES / "bottleneck")])
     assert result.exit_code == 0, result.output
     assert "capacity = {exit = 1.9}" in result.output and "extrapolated to about" in result.output
+
+
+def test_the_capacity_of_a_width_is_the_published_law():
+    """capacity = "auto": 2.08 persons/(m s) up to 1.2 m, 2.57 from 2.4 m (the means of the experiments at 0.8 to
+    1.2 m and at 2.4 to 5 m), linear in between."""
+    widths = np.array([0.5, 1.0, 1.2, 1.5, 1.8, 2.4, 3.6, 5.0])
+    assert np.allclose(width_capacity(widths), [2.08, 2.08, 2.08, 2.2025, 2.325, 2.57, 2.57, 2.57], atol=1e-12)
+
+
+def test_a_door_with_an_auto_capacity_passes_exactly_the_capacity_of_its_width():
+    """A saturated block (5.4 persons/m^2) pushed at 1 m/s towards the exit of cases/saturated-exit (free flow
+    5.4 persons/(m s)) with capacity = "auto": while the queue lasts the exit passes exactly width_capacity(w) x w
+    persons per second, and every invariant holds."""
+    case = load_case(CASES / "saturated-exit", ["model.rho_max=5.4", "initial.density=5.4 * (x < 1)", "velocity.ux=-1",
+                                                'boundary.capacity={exit="auto"}', "time.end=0.5"])
+    model = Simulation(case).model
+    width = model.domain.length[model.domain.groups["exit"]].sum()
+    rows = steps(model, 0.5)
+    assert_invariants(rows, model.initial_mass)
+    t, out = np.array([r["t"] for r in rows]), np.array([r["evacuated"] for r in rows])
+    rate = width_capacity(width) / 5.4 * width   # the state's unit is rho_max
+    assert np.abs(out - rate * t).max() <= 1e-10 * model.initial_mass
+
+
+def test_a_capacity_neither_a_number_nor_auto_is_one_line(tmp_path):
+    result = CliRunner().invoke(main, ["run", str(CASES / "saturated-exit"), "--set", 'boundary.capacity={exit="fast"}',
+                                       "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2 and "boundary.capacity" in result.output and '"auto"' in result.output
+    assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "out").exists()

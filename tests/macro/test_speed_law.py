@@ -51,3 +51,38 @@ def test_godunov_demand_supply_is_the_exact_riemann_flux_of_the_linear_law():
 def test_bad_laws(spec, words):
     with pytest.raises(LawError, match=words.replace("[", r"\[").replace("]", r"\]")):
         SpeedLaw(spec)
+
+
+#: Predtechenskii and Milinskii (1978), horizontal path (GOST 12.1.004-91 appendix 2): D (m^2/m^2), v (m/min), q (m/min)
+PM_TABLE = [(0.01, 100, 1.0), (0.05, 100, 5.0), (0.1, 80, 8.0), (0.2, 60, 12.0), (0.3, 47, 14.1), (0.4, 40, 16.0),
+            (0.5, 33, 16.5), (0.6, 27, 16.2), (0.7, 23, 16.1), (0.8, 19, 15.2), (0.9, 15, 13.5)]
+
+
+def test_predtechenskii_is_the_published_table():
+    """f(rho) = v(D) / v(0) with D = 0.1 m^2 x rho (persons/m^2): the table's speeds at its densities (rho_max = 9
+    persons/m^2, D = 0.9 at saturation, so every row is in [0, 1]), its flows q = D v linear between them (D = 0.25:
+    q = 13.05, v = 52.2 m/min), v = 15 m/min beyond the last row, and q = D v at every row."""
+    law = SpeedLaw("predtechenskii", rho_max=9.0)
+    for d, v, q in PM_TABLE:
+        assert law(np.array(d / 0.9)) == pytest.approx(v / 100, abs=1e-12)
+        assert d * v == pytest.approx(q, abs=0.051)   # the published q, rounded to 0.1 m/min
+    assert law(np.array(0.25 / 0.9)) == pytest.approx(52.2 / 100, abs=1e-12)
+    assert law(np.array(0.0)) == 1.0
+    assert SpeedLaw("predtechenskii", rho_max=12.0)(np.array([0.8, 1.0])) == pytest.approx([0.15, 0.15], abs=1e-12)
+    # rho_max = 5.4 persons/m^2: D = 0.54 at saturation, q = 16.5 + 0.4 (16.2 - 16.5) = 16.38, v = 30.33 m/min
+    assert SpeedLaw("predtechenskii", rho_max=5.4).f1 == pytest.approx(16.38 / 0.54 / 100, abs=1e-12)
+
+
+@pytest.mark.parametrize("rho_max", [1.0, 5.4, 9.0])   # up to D = 0.9, the densest row
+def test_predtechenskii_pushes_at_saturation_and_carries_more_than_weidmann(rho_max):
+    """f in [0, 1], non-increasing, f(1) > 0 (people still walk at the densest: the projection acts, no push needed),
+    g = r f unimodal (Godunov's demand and supply); with 1.67 m/s and 5.4 persons/m^2 the law carries 2.75
+    persons/(m s) at most (q = 16.5 m/min at D = 0.5: 16.5 / 60 / 0.1), Weidmann's 1.22."""
+    law = SpeedLaw("predtechenskii", rho_max=rho_max)
+    r = np.linspace(0, 1, 10001)
+    f = law(r)
+    assert f.min() > 0 and f.max() == 1.0 and np.all(np.diff(f) <= 1e-15)
+    assert law.saturates and law.unimodal
+    if rho_max == 5.4:
+        assert 100 / 60 * 5.4 * law.flux(np.array(law.r_star)) == pytest.approx(16.5 / 6, rel=1e-6)
+        assert 5.4 * law.r_star == pytest.approx(5.0, abs=1e-6)

@@ -85,3 +85,47 @@ def test_the_recommended_flow_at_the_1_m_bottleneck_converges_near_the_experimen
     flows = np.array([validation.run_task(task)["specific_flow"] for task in tasks])
     assert abs(flows[-1] - flows[-2]) <= 0.05 * flows[-1], flows
     assert abs(flows[-1] - 1.9) <= 0.25 * 1.9, flows
+
+
+def test_a_wide_bottleneck_is_the_2_4_m_scene_magnified(tmp_path):
+    """Up to 2.4 m the scene is the one of docs/validation.md (8 m x 6 m, a corridor 2 m long, the crowd on the
+    first 6 m); beyond, every length times w / 2.4, so that the queue in front of a 5 m door lasts as long."""
+    import tomllib
+
+    def plan(width):
+        directory = validation.scene(width, tmp_path)
+        return (tomllib.loads((directory / "bottleneck.toml").read_text()),
+                load_case(directory)["initial"]["density"])
+
+    (narrow, crowd), (wide, wide_crowd) = plan(1.0), plan(4.8)
+    assert narrow["size"] == 0.25 and narrow["exits"][0]["size"] == 0.1 and crowd == "2.5 * (x < 6)"
+    assert narrow["outer"]["points"] == [[0, 0], [8, 0], [8, 2.5], [10, 2.5], [10, 3.5], [8, 3.5], [8, 6], [0, 6]]
+    assert wide["size"] == 0.5 and wide["exits"][0]["size"] == 0.2 and wide_crowd == "2.5 * (x < 12)"
+    assert wide["outer"]["points"] == [[0, 0], [16, 0], [16, 3.6], [20, 3.6], [20, 8.4], [16, 8.4], [16, 12], [0, 12]]
+
+
+def test_the_diagram_of_predtechenskii_s_law_is_the_published_one(tmp_path):
+    """femcrowd validate --diagram: in RiMEA test 4's corridor the uniform crowd walks at the law's speed, so speed
+    and specific flow are Predtechenskii and Milinskii's (D = 0.3: 47 m/min, 14.1 m/min / 0.1 m^2 = 2.35
+    persons/(m s) at 3 persons/m^2); a law without a published diagram is refused in one line."""
+    from femcrowd.studies import diagram
+
+    table, text, _ = diagram.diagram(tmp_path / "d", ("predtechenskii",), densities=(3.0,), levels=1, serial=True)
+    row = table[0]
+    assert row["speed"] == pytest.approx(47 / 60, rel=1e-6) and row["published_speed"] == pytest.approx(47 / 60)
+    assert row["specific_flow"] == pytest.approx(14.1 / 6, rel=1e-5) and row["within"]
+    assert (tmp_path / "d" / "diagram.md").read_text() == text and "| 3 | 0.783 / 0.783 |" in text
+    result = CliRunner().invoke(main, ["validate", "--diagram", "--settings", "capacity", "--out", str(tmp_path / "e")])
+    assert result.exit_code == 2 and "no published diagram" in result.output
+
+
+@pytest.mark.slow
+def test_predtechenskii_s_law_with_auto_capacities_passes_the_capacity_of_the_width_on_two_meshes(small):
+    """The setting "predtechenskii" at the small 0.6 m bottleneck: the law carries more than the door's capacity
+    of its width (2.08 persons/(m s) at 0.6 m), so the door decides: everyone out, 2.08 within 3 % on two meshes,
+    which agree to 1 %."""
+    overrides = validation.SETTINGS["predtechenskii"].overrides
+    (coarse, out_coarse), (fine, out_fine) = (specific_flow(small, *overrides, f"mesh.refine={level}")
+                                              for level in (0, 1))
+    assert min(out_coarse, out_fine) > 0.999
+    assert fine == pytest.approx(2.08, rel=0.03) and abs(fine - coarse) <= 0.01 * fine
