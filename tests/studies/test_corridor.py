@@ -136,3 +136,12 @@ def test_the_papers_free_exit_passes_what_arrives(tmp_path):
     assert row["entered"] == pytest.approx(148, abs=1e-9) and row["all_out"]
     assert row["flow"] == pytest.approx(corridor.default_inflow(), rel=1e-5)
     assert 148 / 2.943 + 8 / 1.34 < row["last_out"] < 148 / 2.943 + 8 / 1.34 + 5
+
+
+def test_a_run_that_ends_before_the_scene_is_empty_has_no_last_out(tmp_path):
+    """Everyone but a speck is out, yet the run's own emptiness test (time.empty_fraction) is not passed by
+    time.end: no evacuation time, so no last person out and not "all out" (it raised a TypeError)."""
+    task = corridor.plan(["paper"], [0.7], 1, 1, tmp_path, overrides=("time.empty_fraction=1e-12", "time.end=62"))[0]
+    row = corridor.run_task(task)
+    assert row["evacuated"] >= 148 - 0.5
+    assert not row["all_out"] and np.isnan(row["last_out"])
