@@ -20,9 +20,11 @@ from ..mesh.outline import walkable_area
 class TrajectoryFile:
     """trajectories.txt written frame by frame as the run goes (flushed: an interrupted run keeps it)."""
 
-    def __init__(self, directory, rate: float, domain: Domain, frame: int | None = None):
+    def __init__(self, directory, rate: float, domain: Domain, frame: int | None = None, place=None):
         """frame: the next frame of a resumed run (the rows of the later frames, written after its
-        checkpoint, are dropped)."""
+        checkpoint, are dropped); place: the (x, y, z) of the discs' centres q (a building's Atlas.xyz), else
+        (x, y, 0)."""
+        self.place = place
         directory = Path(directory)
         write_text(directory / "walkable_area.wkt", shapely.to_wkt(walkable_area(domain), rounding_precision=9) + "\n")
         self.rate = rate
@@ -50,8 +52,10 @@ class TrajectoryFile:
             self._file.flush()
 
     def _write(self, ids, q) -> None:
-        rows = np.column_stack([ids, np.full(len(ids), self.frame), q, np.zeros(len(ids))])
-        np.savetxt(self._file, rows, fmt=["%d", "%d", "%.6f", "%.6f", "%.1f"], delimiter="\t")
+        xyz = np.column_stack([q, np.zeros(len(ids))]) if self.place is None else self.place(q)
+        rows = np.column_stack([ids, np.full(len(ids), self.frame), xyz])
+        np.savetxt(self._file, rows, fmt=["%d", "%d", "%.6f", "%.6f", "%.1f" if self.place is None else "%.6f"],
+                   delimiter="\t")
         self.frame += 1
 
     def close(self) -> None:
