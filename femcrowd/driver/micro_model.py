@@ -21,7 +21,7 @@ from ..micro.contacts import WallSet
 from ..micro.density import disc_density
 from ..micro.scheme import Uncovered
 from ..micro.strategies import DesiredVelocity, View
-from ..micro.surface import Atlas
+from ..micro.surface import Atlas, StairTooShort
 from ..timer import Timer
 from .checkpoint import parts, restore_parts
 from .macro_model import level_columns
@@ -173,7 +173,7 @@ class MicroModel:
             before, ids = sim.q, sim.ids   # the discs before the step (the step makes new arrays)
             try:
                 info = sim.step()
-            except Uncovered as err:
+            except (Uncovered, StairTooShort) as err:
                 self._fail(str(err))
             self.outside = self._escaped(info)
         if until - sim.t < 1e-12 * max(1.0, until):

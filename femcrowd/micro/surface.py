@@ -29,6 +29,10 @@ from .contacts import point_segment_distance
 from .crossings import segment_crossings
 
 
+class StairTooShort(RuntimeError):
+    """Contacts that reach further than half a stair: the pairs across its folds would not all be found."""
+
+
 class Atlas:
     """The charts of a building's pieces (its physical surface groups), their folds and the layout of the discs."""
 
@@ -90,7 +94,7 @@ class Atlas:
         stair = a if self.sec[a] > 1 else b
         stair_cells = self.piece_of_cell == stair
         span = self.chart(self.domain.points[self.domain.triangles[stair_cells].ravel()], stair)
-        band = 0.5 * float(np.max(np.abs((span - span[0]) @ self.n[stair])))   # half the stair's length
+        band = 0.5 * float(np.ptp(span @ self.n[stair]))   # half the stair's length
         layout = {}
         cells = self.domain.f2t[:, facets[0]]
         for k in (a, b):
@@ -183,8 +187,9 @@ class Atlas:
         for fold in self.folds:
             near = {}
             if reach > fold["band"]:
-                raise ValueError(f"the discs' contacts reach {reach:.3g} m, more than half the stair at the fold of "
-                                 f"{self.names[fold['a']]!r} and {self.names[fold['b']]!r} ({fold['band']:.3g} m)")
+                raise StairTooShort(f"the discs' contacts reach {reach:.3g} m, more than half the stair at the fold "
+                                    f"of {self.names[fold['a']]!r} and {self.names[fold['b']]!r} "
+                                    f"({fold['band']:.3g} m)")
             for k in (fold["a"], fold["b"]):
                 on = np.flatnonzero(piece == k)
                 seg = fold["segment"][k]

@@ -9,14 +9,15 @@ from click.testing import CliRunner
 from femcrowd import load_case
 from femcrowd.cli import main
 from femcrowd.driver.micro_model import MicroModel
-from femcrowd.driver.reading import read_pvd
+from femcrowd.driver.reading import read_history, read_pvd
 from femcrowd.driver.scene import build_scene
 from femcrowd.mesh import load_domain
 from femcrowd.micro import MicroSimulation
-from femcrowd.micro.surface import Atlas
+from femcrowd.micro.surface import Atlas, StairTooShort
 
+from ..driver.test_resume import same_disc_run
 from ..mesh.test_building import SLOPE, WALK, corridor
-from ..support import MESHES
+from ..support import CASES, MESHES
 
 RADIUS = 0.2
 
@@ -100,6 +101,8 @@ def test_no_contact_across_floors():
         info = sim.step()
         assert info.contacts == 0 and np.allclose(info.u, [0.3, 0.0], rtol=0, atol=1e-14)
     assert sim.contacts.cl.m == 0 and len(atlas.cross_pairs(sim.q, 2.0)[0]) == 0
+    with pytest.raises(StairTooShort, match="more than half the stair"):   # its pairs across the folds: not all found
+        atlas.cross_pairs(sim.q, 3.0)
     z = atlas.xyz(sim.q)[:, 2]
     assert z[0] == 0 and 3 < z[1] < 6 and z[2] == 3 and z[3] == 6
 
@@ -142,3 +145,32 @@ def test_what_the_discs_cannot_do_on_a_building_is_refused_in_one_line(tmp_path,
     assert result.exit_code == 2 and f": {key} = " in result.output and "docs/floors.md" in result.output, \
         result.output
     assert "Traceback" not in result.output and not (tmp_path / "out").exists()
+
+
+def test_a_disc_run_on_a_building_resumes_bit_for_bit(tmp_path):
+    """cases/corridor-stair in the disc model to 6 s (discs on the stair and across its folds, in contact), continued
+    to 8 s with --resume: the uninterrupted run, bit for bit (the pairs across the folds are in the checkpoint)."""
+    whole, part = tmp_path / "whole", tmp_path / "part"
+    case, micro = CASES / "corridor-stair", ("--set", "model.type='micro'")
+    for out, end, more in ((whole, 8, ()), (part, 6, ()), (part, 8, ("--resume",))):
+        result = CliRunner().invoke(main, ["run", str(case), *micro, "--set", f"time.end={end}", "--out", str(out),
+                                           "-q", *more])
+        assert result.exit_code == 0, result.output
+    assert read_history(part / "history.csv")["on_stair"][60:80].min() > 0
+    same_disc_run(whole, part)
+
+
+def test_the_pictures_draw_each_disc_with_its_floor():
+    """plot/levels.py lays the floors side by side: a disc on a floor is shifted with it, a disc on a stair with the
+    floor of the stair's head (as the stair is drawn), all at z = 0."""
+    import pyvista as pv
+
+    from femcrowd.plot.levels import Levels
+
+    levels = Levels(load_domain(MESHES / "three_storeys.msh", ["exit"]))
+    points = np.array([[1.0, 1.0, 0.0], [1.0, 1.0, 3.0], [1.0, 1.0, 6.0], [4.0, 5.0, 1.5], [4.0, 1.0, 4.5]])
+    frame = pv.PolyData(points)
+    frame.point_data["radius"] = np.full(5, RADIUS)
+    drawn = levels.discs(frame)
+    assert np.array_equal(drawn.points[:, 0], points[:, 0] + levels.step * np.array([0, 1, 2, 1, 2]))
+    assert np.all(drawn.points[:, 2] == 0) and np.array_equal(drawn.point_data["radius"], frame.point_data["radius"])
