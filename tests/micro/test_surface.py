@@ -174,3 +174,14 @@ def test_the_pictures_draw_each_disc_with_its_floor():
     drawn = levels.discs(frame)
     assert np.array_equal(drawn.points[:, 0], points[:, 0] + levels.step * np.array([0, 1, 2, 1, 2]))
     assert np.all(drawn.points[:, 2] == 0) and np.array_equal(drawn.point_data["radius"], frame.point_data["radius"])
+
+
+def test_the_comparison_of_the_models_tells_the_floors_apart():
+    """femcrowd compare's W2 between the crowds: a crowd on the ground floor and discs at the same plan points on
+    the floor 3 m above are 3 m apart, not 0 (the distances are in space, z included)."""
+    from femcrowd.studies.compare import _w2
+
+    points = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    grid = meshio.Mesh(points, [("triangle", np.array([[0, 1, 2]]))])
+    discs = meshio.Mesh(points.mean(axis=0, keepdims=True) + [0.0, 0.0, 3.0], [])
+    assert _w2(grid, np.array([0.5]), np.array([1.0]), discs) == pytest.approx(3.0, rel=1e-12)
