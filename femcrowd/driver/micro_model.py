@@ -14,7 +14,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ..errors import RunFailed
+from ..errors import InputError, RunFailed
 from ..macro.velocity import CongestionVelocity
 from ..micro import MicroSimulation
 from ..micro.contacts import WallSet
@@ -75,7 +75,10 @@ class MicroModel:
                         "pass a door follows from the discs)", case.file)
         with scene.timer("discs"):
             # a building: the discs in the layout of its pieces' charts (micro/surface.py)
-            surface = self.surface = Atlas(domain) if domain.z is not None else None
+            try:
+                surface = self.surface = Atlas(domain) if domain.z is not None else None
+            except ValueError as err:   # pieces the discs cannot walk (two stairs or two floors sharing an edge)
+                raise InputError(case.file, "mesh.file", case["mesh"]["file"], str(err)) from None
             self.locate = domain.locate if surface is None else surface.locate
             exits = self.exits = boundary.at(0.0)
             rho = initial_densities(case, domain)

@@ -185,3 +185,15 @@ def test_the_comparison_of_the_models_tells_the_floors_apart():
     grid = meshio.Mesh(points, [("triangle", np.array([[0, 1, 2]]))])
     discs = meshio.Mesh(points.mean(axis=0, keepdims=True) + [0.0, 0.0, 3.0], [])
     assert _w2(grid, np.array([0.5]), np.array([1.0]), discs) == pytest.approx(3.0, rel=1e-12)
+
+
+def test_pieces_the_discs_cannot_walk_are_refused(tmp_path):
+    """Two stairs sharing an edge (the corridor's stair cut in two groups) have no chart that unfolds both about a
+    floor: refused, naming them (a run names mesh.file)."""
+    domain = corridor(tmp_path, 0.5)
+    stair = np.asarray(domain.mesh.subdomains["stair"])
+    first = domain.centroid[stair, 0] < 6
+    domain.mesh._subdomains = {**{k: v for k, v in domain.mesh.subdomains.items() if k != "stair"},
+                               "stair_a": stair[first], "stair_b": stair[~first]}
+    with pytest.raises(ValueError, match="'stair_a' and 'stair_b' share an edge but are not a floor and a stair"):
+        Atlas(domain)
