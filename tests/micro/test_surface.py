@@ -108,8 +108,8 @@ def test_no_contact_across_floors():
 
 
 def test_the_discs_frames_stand_at_their_elevations_and_move_along_the_slope(tmp_path):
-    """discs_*.vtu: the discs at (x, y, z) on their floor or stair, the velocity of a disc on the stair tangent to
-    it; history.csv counts the discs on each floor and on the stair (on_<group>)."""
+    """discs_*.vtu and trajectories.txt: the discs at (x, y, z) on their floor or stair, the velocity of a disc on
+    the stair tangent to it; history.csv counts the discs on each floor and on the stair (on_<group>)."""
     corridor(tmp_path, 0.25)
     (tmp_path / "case.toml").write_text(WALK)
     out = tmp_path / "out"   # the run ends as the first discs reach the ground floor (an empty frame is no VTU)
@@ -128,6 +128,10 @@ def test_the_discs_frames_stand_at_their_elevations_and_move_along_the_slope(tmp
         on_stair += stair.sum()
         assert np.allclose(u[stair, 2], -0.75 * u[stair, 0], atol=1e-12)
     assert on_stair > 0
+    rows = np.loadtxt(out / "trajectories.txt", comments="#")   # PedPy's ID FR X Y Z: Z the elevation too
+    x, z = rows[:, 2], rows[:, 4]
+    assert np.allclose(z, np.where(x <= 4, 3.0, np.where(x >= 8, 0.0, 3.0 - 0.75 * (x - 4))), atol=1e-5)
+    assert z.min() < 3.0
     history = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
     assert np.array_equal(history["on_upper"] + history["on_stair"] + history["on_ground"], history["count"])
     assert history["on_stair"].max() > 0 and history["on_ground"].max() > 0
