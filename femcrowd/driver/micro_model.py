@@ -267,7 +267,7 @@ class MicroModel:
         run keeps the frames written before its checkpoint."""
         self.trajectories = TrajectoryFile(directory, self.trajectory_rate, self.domain,
                                            self.resumed_frame if resume else None,
-                                           None if self.surface is None else self.surface.xyz)
+                                           self.surface)
         if not resume:
             self.trajectories.start(self.sim.t, self.sim.ids, self.sim.q)
         return [self.trajectories]
