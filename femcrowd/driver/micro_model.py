@@ -5,7 +5,8 @@ from ``[initial]`` (count from ``[micro].count``, else from the density at the h
 packing density); walls and obstacles are the wall facets of the mesh, exits its exit
 facets (a closed exit is a wall, but it does not close on a disc in its doorway: docs/micro.md,
 "Doors that close"). Time step: ``time.dt``, else tau = cfl * r_min / max|U| (a disc moves at
-most cfl radii per step).
+most cfl radii per step). On a building (docs/floors.md, "Discs on stairs") the discs live in the layout of its
+pieces' charts (micro/surface.py): walls, exits, desired velocities, point location and output go through it.
 """
 
 import logging
@@ -13,15 +14,17 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ..errors import RunFailed
+from ..errors import InputError, RunFailed
 from ..macro.velocity import CongestionVelocity
 from ..micro import MicroSimulation
 from ..micro.contacts import WallSet
 from ..micro.density import disc_density
 from ..micro.scheme import Uncovered
 from ..micro.strategies import DesiredVelocity, View
+from ..micro.surface import Atlas, StairTooShort
 from ..timer import Timer
 from .checkpoint import parts, restore_parts
+from .macro_model import level_columns
 from .measurements import MicroMeasurements
 from .model import SOURCE_COLUMNS, Evacuation, landing
 from .output import disc_frame
@@ -71,30 +74,41 @@ class MicroModel:
             log.warning("%s: the disc model has no door capacity: [boundary.capacity] is not used (how many discs "
                         "pass a door follows from the discs)", case.file)
         with scene.timer("discs"):
+            # a building: the discs in the layout of its pieces' charts (micro/surface.py)
+            try:
+                surface = self.surface = Atlas(domain) if domain.z is not None else None
+            except ValueError as err:   # pieces the discs cannot walk (two stairs or two floors sharing an edge)
+                raise InputError(case.file, "mesh.file", case["mesh"]["file"], str(err)) from None
+            self.locate = domain.locate if surface is None else surface.locate
             exits = self.exits = boundary.at(0.0)
             rho = initial_densities(case, domain)
-            q, r = initial_discs(case, domain, exits, rho.sum(axis=0) if len(rho) > 1 else None)
+            q, r = initial_discs(case, domain, exits, rho.sum(axis=0) if len(rho) > 1 else None, surface)
             populations = scene.populations
-            speed = max(np.hypot(*p.velocity.at_points(domain.centroid, 0.0, exits).T).max() for p in populations)
+            if surface is None:
+                speed = max(np.hypot(*p.velocity.at_points(domain.centroid, 0.0, exits).T).max() for p in populations)
+            else:   # the speed on the surface: the length of the lift of U, that of U in the charts
+                speed = max(np.hypot(*surface.to_chart(p.velocity.cells(exits), surface.piece_of_cell).T).max()
+                            for p in populations)
             self.r_min = float(r.min()) if len(r) else float(np.min(case["micro"]["radius"]))
             tau = case["time"]["dt"]
             if tau is None:
                 tau = case["time"]["cfl"] * self.r_min / speed if speed > 0 else case["output"]["every"]
             self.tau = tau
             spec = case["micro"]
-            self.population = disc_populations(case, domain, rho, q)
+            self.population = disc_populations(case, domain, rho, q, self.locate)
             self.names = [p.name for p in populations]
-            desired = DesiredVelocity([lambda xy, t, v=p.velocity: v.at_points(xy, t, boundary.at(t))
-                                       for p in populations],
+            desired = DesiredVelocity([self._desired(p.velocity) for p in populations],
                                       self.population, [p.law for p in populations], spec["strategy"],
                                       View(spec["view_distance"], spec["view_angle"]))
-            self.sim = MicroSimulation(q, r, exits.segments("wall"), exits.segments("exit"), desired, tau,
-                                       method=spec["method"], fluctuation=spec["fluctuation"], seed=spec["seed"])
+            self.sim = MicroSimulation(q, r, *self._segments(exits), desired, tau, method=spec["method"],
+                                       fluctuation=spec["fluctuation"], seed=spec["seed"], surface=surface)
             self.doorways, self.held = {}, set()   # exit name -> WallSet of its facets; the exits held open
             desired.sim = self.sim
             self.routing = [p.velocity for p in populations if isinstance(p.velocity, CongestionVelocity)]
             self.desired, self.initial_count = desired, len(q)
             self.columns = list(MICRO_COLUMNS)
+            self.levels = [] if surface is None else surface.names   # a building's floors and stairs
+            self.columns += level_columns(self.levels)
             if len(populations) > 1:
                 self.columns += population_columns(self.names)
                 self.initial_counts = np.bincount(self.population, minlength=len(populations))
@@ -111,9 +125,23 @@ class MicroModel:
                                      max((source.end for source in scene.sources), default=-np.inf),
                                      people=self.initial_count > 0)
         self.regions = Regions(scene, self.names)
-        self.regions.warn_trapped(np.bincount(domain.locate(q) + 1, minlength=domain.ncells + 1)[1:])
+        self.regions.warn_trapped(np.bincount(self.locate(q) + 1, minlength=domain.ncells + 1)[1:])
         self.last = None   # the last step's StepInfo (positions, velocities, pressures of its discs)
         self.timers = Timer()
+
+    def _desired(self, velocity):
+        """U0(q, t) of a population's desired velocity at the discs: in plan, or on a building the plan U of the
+        cell holding each disc in the chart of its piece."""
+        if self.surface is None:
+            return lambda xy, t: velocity.at_points(xy, t, self.boundary.at(t))
+        return lambda X, t: self.surface.velocity(X, velocity.cells(self.boundary.at(t)))
+
+    def _segments(self, doors):
+        """The walls and exits of the discs for these doors (on a building in the layout, with the walls seen
+        across the folds)."""
+        if self.surface is None:
+            return doors.segments("wall"), doors.segments("exit")
+        return self.surface.segments(doors.wall, True), self.surface.segments(doors.exit, False)
 
     @property
     def t(self) -> float:
@@ -132,7 +160,7 @@ class MicroModel:
         exits = self.boundary.at(sim.t)   # the doors the discs head for
         doors = self._doors(exits)
         if doors is not self.exits:   # a door closed or opened: walls and exits follow
-            sim.set_boundary(doors.segments("wall"), doors.segments("exit"))
+            sim.set_boundary(*self._segments(doors))
             self.exits = doors
         sim.tau = min(self.tau, until - sim.t)
         if any(velocity.due(sim.t, exits) for velocity in self.routing):
@@ -148,7 +176,7 @@ class MicroModel:
             before, ids = sim.q, sim.ids   # the discs before the step (the step makes new arrays)
             try:
                 info = sim.step()
-            except Uncovered as err:
+            except (Uncovered, StairTooShort) as err:
                 self._fail(str(err))
             self.outside = self._escaped(info)
         if until - sim.t < 1e-12 * max(1.0, until):
@@ -167,12 +195,13 @@ class MicroModel:
     def _escaped(self, info) -> int:
         """The discs outside the domain after a step: none, since a disc leaves through an exit only (and is then
         removed); one that crossed a wall is an error naming the step's perturbation or its time step."""
-        outside = np.flatnonzero(self.domain.locate(info.q) < 0)
+        outside = np.flatnonzero(self.locate(info.q) < 0)
         if not len(outside):
             return 0
-        x, y = info.q[outside[0]]
+        where = info.q[outside[:1]] if self.surface is None else self.surface.xyz(info.q[outside[:1]])
         self._fail(f"{len(outside)} disc(s) left the domain through a wall in the step to t = {info.time:.6g} s (tau "
-                   f"= {info.dt:.3g} s), the first to ({x:.6g}, {y:.6g}): a disc leaves through an exit only")
+                   f"= {info.dt:.3g} s), the first to ({', '.join(f'{v:.6g}' for v in where[0])}): a disc leaves "
+                   "through an exit only")
 
     def _fail(self, what):
         """A step gone wrong: RunFailed naming the discs' perturbation (micro.fluctuation) or else their time step."""
@@ -199,14 +228,21 @@ class MicroModel:
     def _occupied(self, name) -> bool:
         """Does a disc overlap the facets of the exit `name`?"""
         if name not in self.doorways:
-            self.doorways[name] = WallSet(self.boundary.segments(name))
+            if self.surface is None:
+                self.doorways[name] = WallSet(self.boundary.segments(name))
+            else:
+                facets = np.zeros(len(self.domain.length), bool)
+                facets[next(door for door in self.boundary.doors if door.name == name).facets] = True
+                self.doorways[name] = WallSet(self.surface.segments(facets, False))
         return bool(np.any(self.doorways[name].distance(self.sim.q) < self.sim.r))
 
     def row(self, info=None) -> dict:
         """The diagnostics of a step (info: its StepInfo; None: the initial discs)."""
         sim = self.sim
-        outside = self.outside if info is not None else int(np.count_nonzero(self.domain.locate(sim.q) < 0))
+        outside = self.outside if info is not None else int(np.count_nonzero(self.locate(sim.q) < 0))
         extra = self._population_row() if len(self.names) > 1 else {}
+        if self.levels:
+            extra.update({f"on_{name}": int(n) for name, n in zip(self.levels, self.surface.counts(sim.q))})
         if self.sources is not None:
             extra.update(inflow=self.sources.inflow, queued=self.sources.queued)
         if info is None:
@@ -230,7 +266,8 @@ class MicroModel:
         """The trajectories of the discs (PedPy's Juelich text format) and the walkable area (WKT); a resumed
         run keeps the frames written before its checkpoint."""
         self.trajectories = TrajectoryFile(directory, self.trajectory_rate, self.domain,
-                                           self.resumed_frame if resume else None)
+                                           self.resumed_frame if resume else None,
+                                           self.surface)
         if not resume:
             self.trajectories.start(self.sim.t, self.sim.ids, self.sim.q)
         return [self.trajectories]
@@ -241,8 +278,12 @@ class MicroModel:
         if self.last is None:
             sim = self.sim
             u = sim.desired_velocity() if sim.count else np.zeros((0, 2))
-            return disc_frame(sim.q, sim.r, u, np.zeros(sim.count), extra)
-        return disc_frame(self.last.q, self.last.r, self.last.u, self.last.pressure, extra)
+            q, r, pressure = sim.q, sim.r, np.zeros(sim.count)
+        else:
+            q, r, u, pressure = self.last.q, self.last.r, self.last.u, self.last.pressure
+        if self.surface is not None:   # the discs at their (x, y, z), their velocities along their pieces
+            q, u = self.surface.xyz(q), self.surface.velocity3d(q, u)
+        return disc_frame(q, r, u, pressure, extra)
 
     def snapshot(self) -> dict:
         """The discs to continue from (a checkpoint), with their contact network and perturbations: a resumed
@@ -260,7 +301,7 @@ class MicroModel:
         sim = self.sim
         exits = self.boundary.opening(data["exits_open"].tolist())   # the walls of the checkpoint's contact network
         if exits is not self.exits:
-            sim.set_boundary(exits.segments("wall"), exits.segments("exit"))
+            sim.set_boundary(*self._segments(exits))
             self.exits = exits
         self.held = set(exits.open) - set(self.boundary.at(float(data["t"])).open)
         sim.restore(data)
@@ -273,7 +314,7 @@ class MicroModel:
     def summary(self, recorded: dict) -> dict:
         """What the summary adds to the recorder's entries."""
         sim, cells = self.sim, self.domain.ncells + 1
-        cell = self.domain.locate(sim.q)
+        cell = self.locate(sim.q)
         where = np.where(cell < 0, cells - 1, cell)   # the last column: discs outside every cell
         people = np.bincount(self.population[sim.ids] * cells + where, minlength=len(self.names) * cells)
         return {"steps": sim.nstep, "tau": self.tau, "evacuation_time": self.evacuation.time,

@@ -170,10 +170,11 @@ def triangle_frame(domain, cell_data) -> meshio.Mesh:
 
 def disc_frame(q, r, u, pressure, extra=None) -> meshio.Mesh:
     """A meshio point cloud of discs with radius, velocity (3 components) and pressure point data (and the
-    arrays of `extra`, e.g. population)."""
-    points = np.column_stack([q, np.zeros(len(q))])
+    arrays of `extra`, e.g. population); q, u: (n, 2) in the plane z = 0, or (n, 3) (a building's discs)."""
+    points = q if q.shape[1] == 3 else np.column_stack([q, np.zeros(len(q))])
+    velocity = u if u.shape[1] == 3 else np.column_stack([u, np.zeros(len(q))])
     return meshio.Mesh(points, [("vertex", np.arange(len(q)).reshape(-1, 1))],
-                       point_data={"radius": r, "velocity": np.column_stack([u, np.zeros(len(q))]),
+                       point_data={"radius": r, "velocity": velocity,
                                    "pressure": pressure, **(extra or {})})
 
 

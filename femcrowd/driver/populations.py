@@ -179,13 +179,14 @@ def initial_densities(case: Case, domain: Domain) -> np.ndarray:
     return rho
 
 
-def disc_populations(case: Case, domain: Domain, rho: np.ndarray, q: np.ndarray) -> np.ndarray:
+def disc_populations(case: Case, domain: Domain, rho: np.ndarray, q: np.ndarray, locate=None) -> np.ndarray:
     """The population index of each disc centred at q: drawn with the populations' shares of the initial
     density of its cell (rho: (populations, cells)), seeded by micro.seed; with populations.<name>.people,
-    exactly that many discs each (drawn in turn without replacement, in proportion to the shares)."""
+    exactly that many discs each (drawn in turn without replacement, in proportion to the shares); locate: the
+    cells of the discs' centres (default domain.locate; a building's Atlas.locate)."""
     if len(rho) == 1:
         return np.zeros(len(q), int)
-    cell = np.maximum(domain.locate(q), 0)
+    cell = np.maximum((locate or domain.locate)(q), 0)
     share = rho[:, cell].T
     total = share.sum(axis=1, keepdims=True)
     share = np.divide(share, total, out=np.full_like(share, 1.0 / len(rho)), where=total > 0)

@@ -61,7 +61,6 @@ def build_scene(case: Case, plan=None) -> Scene:
 
 #: what a case on a building (docs/floors.md) may not use yet: key -> (the value it may have, why)
 NOT_ON_BUILDINGS = {
-    ("model", "type"): ("macro", "the disc model does not walk on a building yet (docs/floors.md)"),
     ("scheme", "transport"): ("upwind", "on a building only the upwind transport is on the surface yet (the others "
                                         "reconstruct in plan; docs/floors.md)"),
     ("measure", "lines"): ([], "measurement lines are located in plan, where the floors overlap (docs/floors.md)"),
@@ -69,11 +68,26 @@ NOT_ON_BUILDINGS = {
 }
 
 
+#: what the discs on a building (docs/floors.md, "Discs on stairs") may not use yet: key -> (its value then, why)
+DISCS_NOT_ON_BUILDINGS = {
+    ("velocity", "type"): ("exits", "the discs of a building walk by the walking distance on its surface only "
+                                    "(docs/floors.md)"),
+    ("velocity", "route"): ("shortest", "the discs' route choice sees their density in plan, where the floors "
+                                        "overlap (docs/floors.md)"),
+    ("micro", "positions"): (None, "a file of disc centres gives no floor: give the crowd by initial.regions "
+                                   "(docs/floors.md)"),
+    ("sources", None): ([], "discs arriving on a building are not placed on its surface yet (docs/floors.md)"),
+}
+
+
 def check_building(case: Case) -> None:
-    """InputError for the first key whose value a run on a building does not support yet (NOT_ON_BUILDINGS)."""
-    for (section, key), (allowed, why) in NOT_ON_BUILDINGS.items():
-        if case[section][key] != allowed:
-            raise InputError(case.file, f"{section}.{key}", case[section][key], why)
+    """InputError for the first key whose value a run on a building does not support yet (NOT_ON_BUILDINGS, and
+    DISCS_NOT_ON_BUILDINGS for the disc model)."""
+    rules = {**NOT_ON_BUILDINGS, **(DISCS_NOT_ON_BUILDINGS if case["model"]["type"] == "micro" else {})}
+    for (section, key), (allowed, why) in rules.items():
+        value = case[section] if key is None else case[section][key]
+        if value != allowed:
+            raise InputError(case.file, section if key is None else f"{section}.{key}", value, why)
 
 
 def door_schedule(case: Case, domain: Domain) -> dict:
@@ -115,10 +129,11 @@ def door_capacity(case: Case, domain: Domain) -> dict:
     return {name: value / case["model"]["rho_max"] for name, value in persons.items()}
 
 
-def initial_discs(case: Case, domain: Domain, exits, rho=None) -> tuple[np.ndarray, np.ndarray]:
+def initial_discs(case: Case, domain: Domain, exits, rho=None, surface=None) -> tuple[np.ndarray, np.ndarray]:
     """(q, r) of the disc model: from the CSV of [micro].positions, or sampled without overlap from the
     initial density (clear of the walls and exits of `exits`); rho: the cell densities in units of rho_max
-    (default: [initial])."""
+    (default: [initial]); surface: the Atlas of a building (micro/surface.py), whose layout q is then in, each
+    disc clear of the folds too (on one piece)."""
     spec = case["micro"]
     if spec["positions"] is not None:
         people, key = disc_count(case)
@@ -129,10 +144,17 @@ def initial_discs(case: Case, domain: Domain, exits, rho=None) -> tuple[np.ndarr
     rho = initial_densities(case, domain).sum(axis=0) if rho is None else rho  # cell values, scaled to [0, 1]
     people, key = disc_count(case)
     count = spec["count"] if people is None else people
+    if surface is None:
+        locate, points, triangles = domain.locate, domain.points, domain.triangles
+        walls, ends = exits.segments("wall"), exits.segments("exit")
+    else:
+        locate, points, triangles = surface.locate, surface.points, surface.triangles
+        walls = np.concatenate([surface.segments(exits.wall, True),
+                                *[np.stack(list(fold["segment"].values())) for fold in surface.folds]])
+        ends = surface.segments(exits.exit, False)
     try:
-        q, r = sample_discs(lambda xy: rho[np.maximum(domain.locate(xy), 0)], domain.points,
-                            domain.triangles, spec["radius"], count, walls=exits.segments("wall"),
-                            exits=exits.segments("exit"), seed=spec["seed"], strict=people is not None)
+        q, r = sample_discs(lambda xy: rho[np.maximum(locate(xy), 0)], points, triangles, spec["radius"], count,
+                            walls=walls, exits=ends, seed=spec["seed"], strict=people is not None)
     except ValueError as err:   # strict: fewer discs fit than the people asked for
         raise InputError(case.file, key, people, str(err)) from None
     if len(q) == 0 and not case["sources"]:

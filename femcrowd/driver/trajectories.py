@@ -20,9 +20,11 @@ from ..mesh.outline import walkable_area
 class TrajectoryFile:
     """trajectories.txt written frame by frame as the run goes (flushed: an interrupted run keeps it)."""
 
-    def __init__(self, directory, rate: float, domain: Domain, frame: int | None = None):
+    def __init__(self, directory, rate: float, domain: Domain, frame: int | None = None, surface=None):
         """frame: the next frame of a resumed run (the rows of the later frames, written after its
-        checkpoint, are dropped)."""
+        checkpoint, are dropped); surface: the Atlas of a building (micro/surface.py), whose layout the discs'
+        centres are in: the rows are their (x, y, z), else (x, y, 0)."""
+        self.surface = surface
         directory = Path(directory)
         write_text(directory / "walkable_area.wkt", shapely.to_wkt(walkable_area(domain), rounding_precision=9) + "\n")
         self.rate = rate
@@ -46,12 +48,17 @@ class TrajectoryFile:
         """The frames in (t - dt, t] of a step that ended at t with the discs (ids, q) moving at u."""
         with writing(self.path):
             while self.frame / self.rate <= t + 1e-12:
-                self._write(ids, q - (t - self.frame / self.rate) * u)
+                back = q - (t - self.frame / self.rate) * u
+                if self.surface is not None:   # a disc that crossed a fold in the step was in the piece before
+                    back = self.surface.recharted(q, back)[0]
+                self._write(ids, back)
             self._file.flush()
 
     def _write(self, ids, q) -> None:
-        rows = np.column_stack([ids, np.full(len(ids), self.frame), q, np.zeros(len(ids))])
-        np.savetxt(self._file, rows, fmt=["%d", "%d", "%.6f", "%.6f", "%.1f"], delimiter="\t")
+        xyz = np.column_stack([q, np.zeros(len(ids))]) if self.surface is None else self.surface.xyz(q)
+        rows = np.column_stack([ids, np.full(len(ids), self.frame), xyz])
+        np.savetxt(self._file, rows, fmt=["%d", "%d", "%.6f", "%.6f", "%.1f" if self.surface is None else "%.6f"],
+                   delimiter="\t")
         self.frame += 1
 
     def close(self) -> None:

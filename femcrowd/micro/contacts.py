@@ -183,9 +183,12 @@ class WallSet:
         return out
 
 
-def pair_gaps(q, r, i, j):
-    """Gaps D_ij and unit vectors e_ij = (q_j - q_i)/|q_j - q_i| for pairs (i, j)."""
+def pair_gaps(q, r, i, j, shift=None):
+    """Gaps D_ij and unit vectors e_ij = (q_j - q_i)/|q_j - q_i| for pairs (i, j); shift: (pairs, 2) added to
+    q_j - q_i (the pairs across a fold of a building, micro/surface.py)."""
     dq = q[j] - q[i]
+    if shift is not None:
+        dq += shift
     length = np.sqrt(np.einsum("ij,ij->i", dq, dq))
     with np.errstate(invalid="ignore", divide="ignore"):
         e = dq / length[:, None]
@@ -308,15 +311,19 @@ class CandidateList:
     bind) while the two largest s_i sum to less than ``skin``
     (:meth:`travel_ok`; a wall pair needs s_i < skin). The rows are those of
     :class:`Constraints`: pairs (``pi``, ``pj``), then disc-wall rows (``wi``, ``ws``).
+
+    surface: the :class:`~femcrowd.micro.surface.Atlas` of a building (q its layout): the pairs across its folds
+    are added, each with its ``shift``; None (a plane): ``shift`` is None.
     """
 
-    def __init__(self, q, r, walls: WallSet | None, skin: float):
+    def __init__(self, q, r, walls: WallSet | None, skin: float, surface=None):
         q = np.asarray(q, float)
         r = np.asarray(r, float)
         N = len(q)
         self.skin = float(skin)
         self.q_ref = q.copy()
         self.nwalls = 0 if walls is None else walls.n
+        self.shift = None if surface is None else np.zeros((0, 2))
         if N == 0:
             self.pi = self.pj = self.wi = self.ws = np.zeros(0, np.intp)
             return
@@ -328,6 +335,11 @@ class CandidateList:
             pairs = pairs[D <= self.skin]
         self.pi = np.ascontiguousarray(pairs[:, 0]).astype(np.intp)
         self.pj = np.ascontiguousarray(pairs[:, 1]).astype(np.intp)
+        if surface is not None:
+            i, j, shift = surface.cross_pairs(q, 2 * rmax + self.skin)
+            near = pair_gaps(q, r, i, j, shift)[0] <= self.skin
+            self.pi, self.pj = np.concatenate([self.pi, i[near]]), np.concatenate([self.pj, j[near]])
+            self.shift = np.concatenate([np.zeros((len(pairs), 2)), shift[near]])
         if walls is not None and walls.n:
             wall_disc, wall_segment, _, dist = walls.near(q, rmax + self.skin, tree=tree)
             keep = dist - r[wall_disc] <= self.skin
@@ -336,18 +348,19 @@ class CandidateList:
             self.wi = self.ws = np.zeros(0, np.intp)
 
     @classmethod
-    def from_arrays(cls, q_ref, skin, nwalls, pi, pj, wi, ws) -> "CandidateList":
+    def from_arrays(cls, q_ref, skin, nwalls, pi, pj, wi, ws, shift=None) -> "CandidateList":
         """A list as it was built (a checkpoint's: :meth:`arrays`), with its rows in the same order."""
         built = cls.__new__(cls)
         built.q_ref = np.array(q_ref, float).reshape(-1, 2)
         built.skin, built.nwalls = float(skin), int(nwalls)
         built.pi, built.pj, built.wi, built.ws = (np.array(rows, np.intp) for rows in (pi, pj, wi, ws))
+        built.shift = None if shift is None else np.array(shift, float).reshape(-1, 2)
         return built
 
     def arrays(self) -> dict:
         """The list as arrays, the arguments of :meth:`from_arrays`."""
         return {"q_ref": self.q_ref, "skin": self.skin, "nwalls": self.nwalls, "pi": self.pi, "pj": self.pj,
-                "wi": self.wi, "ws": self.ws}
+                "wi": self.wi, "ws": self.ws, **({} if self.shift is None else {"shift": self.shift})}
 
     @property
     def m(self):
@@ -372,7 +385,7 @@ class CandidateList:
     def constraints(self, q, r, walls: WallSet | None) -> Constraints:
         """Gaps and unit vectors of all listed rows at configuration q."""
         N = len(q)
-        D_pairs, e = pair_gaps(q, r, self.pi, self.pj)
+        D_pairs, e = pair_gaps(q, r, self.pi, self.pj, self.shift)
         if len(self.wi):
             closest, _ = point_segment_distance(q[self.wi], walls.a[self.ws], walls.b[self.ws])
             D_walls, n = _wall_gap(q, r, self.wi, closest)
@@ -386,6 +399,8 @@ class CandidateList:
         keep_pairs = keep_mask[self.pi] & keep_mask[self.pj]
         keep_walls = keep_mask[self.wi]
         self.pi, self.pj = new_index[self.pi[keep_pairs]], new_index[self.pj[keep_pairs]]
+        if self.shift is not None:
+            self.shift = self.shift[keep_pairs]
         self.wi, self.ws = new_index[self.wi[keep_walls]], self.ws[keep_walls]
         self.q_ref = self.q_ref[keep_mask]
         return np.concatenate([keep_pairs, keep_walls])

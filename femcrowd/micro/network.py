@@ -19,11 +19,11 @@ class ContactNetwork:
     """Candidate list, constraint rows, multipliers and factorisation pattern of a crowd of discs.
 
     skin: the list's skin; None: at the first build 6 times the longest move, at least half the mean
-    radius, and after that at least that much.
+    radius, and after that at least that much. surface: the Atlas of a building (micro/surface.py), or None.
     """
 
-    def __init__(self, walls: WallSet, skin: float | None = None):
-        self.walls, self.skin = walls, skin
+    def __init__(self, walls: WallSet, skin: float | None = None, surface=None):
+        self.walls, self.skin, self.surface = walls, skin, surface
         self.pattern = NewtonPattern()
         self.reset()
 
@@ -50,7 +50,7 @@ class ContactNetwork:
     def rebuild(self, q, r, skin: float) -> None:
         """A new list at q; the multipliers of the pairs (and disc-wall rows) in both lists carry over."""
         old_keys = None if self.cl is None else self.cl.keys(len(q))
-        self.cl = CandidateList(q, r, self.walls, skin)
+        self.cl = CandidateList(q, r, self.walls, skin, self.surface)
         lam = np.zeros(self.cl.m)
         if old_keys is not None and len(old_keys) and len(self.lam) == len(old_keys):
             new_keys = self.cl.keys(len(q))

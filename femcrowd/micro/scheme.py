@@ -120,6 +120,8 @@ class MicroSimulation:
         random perturbation xi of each disc's desired velocity (0: none, the
         discs of Maury and Venel); fluctuation_time: its correlation time (s);
         seed: the seed of its random numbers (:class:`Fluctuation`).
+    surface : the :class:`~femcrowd.micro.surface.Atlas` of a building: q, walls and exits are then in its
+        layout, the pairs across its folds are contacts, and a disc crossing a fold changes chart (None: a plane).
     """
 
     def __init__(
@@ -140,6 +142,7 @@ class MicroSimulation:
         fluctuation: float = 0.0,
         fluctuation_time: float = FLUCTUATION_TIME,
         seed: int | None = 1,
+        surface=None,
     ):
         q = np.array(q, dtype=float).reshape(-1, 2)
         r = np.broadcast_to(np.asarray(r, dtype=float), (len(q),)).copy()
@@ -149,7 +152,8 @@ class MicroSimulation:
             raise ValueError(f"time step tau must be > 0, got {tau}")
         self.q, self.r = q, r
         self.ids = np.arange(len(q)) if ids is None else np.asarray(ids).copy()
-        self.contacts = ContactNetwork(WallSet(walls), skin)
+        self.surface = surface
+        self.contacts = ContactNetwork(WallSet(walls), skin, surface)
         self.exits = _exit_segments(exits)
         self.U = U
         self.tau = float(tau)
@@ -170,7 +174,7 @@ class MicroSimulation:
 
     def set_boundary(self, walls, exits) -> None:
         """New walls and exits (a door that closed or opened); the candidate list is rebuilt at the next step."""
-        self.contacts = ContactNetwork(WallSet(walls), self.contacts.skin)
+        self.contacts = ContactNetwork(WallSet(walls), self.contacts.skin, self.surface)
         self.exits = _exit_segments(exits)
 
     def add(self, q, r) -> None:
@@ -239,10 +243,15 @@ class MicroSimulation:
         contacts = int(np.count_nonzero(self.contacts.lam > 0))
         q_new = self.q + tau * projection.u
         gone = segment_crossings(self.q, q_new, self.exits, ending_counts=True).any(axis=1)
+        crossed = None
+        if self.surface is not None:   # a building: the discs that crossed a fold into the next piece's chart
+            q_new, crossed = self.surface.recharted(self.q, q_new)
         self.moved_to = self.q = q_new
         self.u = projection.u
         self.contacts.moved()
         pressure = self._leave(gone, pressure)
+        if crossed is not None and crossed[~gone].any():   # the rows of their pairs are those of another piece now
+            self.contacts.rebuild(self.q, self.r, self.contacts.cl.skin)
         if self.fluctuation is not None:
             self.fluctuation.advance(tau)   # to the end of the step: the next step's perturbations
         # gaps at the new configuration: diagnostics and next step's constraints

@@ -48,6 +48,17 @@ class Levels:
             out.cell_data[name] = np.asarray(mesh.cell_data[name])
         return out
 
+    def discs(self, mesh: pv.DataSet) -> pv.DataSet:
+        """The discs of a frame (at their (x, y, z)) shifted with their floor, at z = 0: a disc on a stair with the
+        floor of the stair's head, the first floor above it."""
+        points = np.asarray(mesh.points, float).copy()
+        level = np.minimum(np.searchsorted(self.elevations, points[:, 2] - 1e-9), len(self.elevations) - 1)
+        points[:, 0] += self.step * level
+        points[:, 2] = 0.0
+        out = mesh.copy()
+        out.points = points
+        return out
+
     def segments(self, facets) -> np.ndarray:
         """Segments (n, 2, 2) of the facets (a mask or indices), shifted with their cell."""
         facets = np.flatnonzero(facets) if np.asarray(facets).dtype == bool else np.asarray(facets)

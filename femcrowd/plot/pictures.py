@@ -123,8 +123,10 @@ class FloorPlan:
         return self._segments(doors, "wall"), self._segments(doors, "exit"), labels, closed
 
     def frame(self, mesh):
-        """A frame as the pictures draw it: a building's floors side by side (plot/levels.py)."""
-        return mesh if self.levels is None else self.levels.cells(mesh)
+        """A frame as the pictures draw it: a building's floors side by side (plot/levels.py), its discs with them."""
+        if self.levels is None:
+            return mesh
+        return self.levels.discs(mesh) if "radius" in mesh.point_data else self.levels.cells(mesh)
 
     def _segments(self, doors, which):
         if self.levels is None:

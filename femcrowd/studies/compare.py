@@ -68,15 +68,16 @@ def _frames(pvd):
 
 
 def _w2(grid, area, density, discs):
-    """W2 between the macro density (cell masses at centroids) and the discs (equal weights)."""
+    """W2 between the macro density (cell masses at centroids) and the discs (equal weights), with distances in
+    space: on a building the floors are apart by their elevations (a chord, shorter than the walk between them)."""
     mass = area * density
     if mass.sum() <= 0 or len(discs.points) == 0:
         return float("nan")
     keep = mass > 1e-12 * mass.max()
-    centroids = grid.points[grid.cells_dict["triangle"][keep]][:, :, :2].mean(axis=1)
+    centroids = grid.points[grid.cells_dict["triangle"][keep]].mean(axis=1)
     a = mass[keep] / mass[keep].sum()
     b = np.full(len(discs.points), 1.0 / len(discs.points))
-    cost = ot.dist(centroids, discs.points[:, :2])  # squared Euclidean
+    cost = ot.dist(centroids, discs.points)  # squared Euclidean
     return float(np.sqrt(ot.emd2(a, b, cost, numItermax=10_000_000)))
 
 

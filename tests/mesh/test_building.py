@@ -202,7 +202,7 @@ def test_the_three_storey_building_is_one_surface_over_floors_that_overlap_in_pl
 
 
 @pytest.mark.parametrize(("setting", "key"), [
-    ("model.type=micro", "model.type"), ("scheme.transport=muscl", "scheme.transport"),
+    ("scheme.transport=muscl", "scheme.transport"),
     ("measure.lines=[{name = 'l', from = [10, 0], to = [10, 2]}]", "measure.lines"),
 ])
 def test_what_a_building_cannot_run_yet_is_refused_in_one_line(tmp_path, setting, key):
