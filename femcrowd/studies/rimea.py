@@ -349,10 +349,13 @@ def routes_over_floors(results) -> Verdict:
     r = results[0]
     h, n = r.history, people(r)
     short = float(np.sum(h["flow_left_head"][1:] * np.diff(h["time"])))
-    long = n - short
+    long = max(n - short, 0.0)
     state = "short" if long < 0.5 else "long" if short < 0.5 else "mixed"
-    return Verdict(f"{state}: short {{short:.1f}}, long {{long:.1f}} of {{n:.0f}}, all out at {{end:.0f}} s",
-                   {"short": short, "long": long, "n": n, "end": evacuation_time(r, 0.5)}, None)
+    end, inside = evacuation_time(r, 0.5), n - float(h["evacuated"][-1])
+    out = "all out at {end:.0f} s" if np.isfinite(end) else "{inside:.1f} inside at {end:.0f} s"
+    return Verdict(f"{state}: short {{short:.1f}}, long {{long:.1f}} of {{n:.0f}}; {out}",
+                   {"short": short, "long": long, "n": n, "inside": inside,
+                    "end": end if np.isfinite(end) else float(h["time"][-1])}, None)
 
 
 TESTS = [
