@@ -9,6 +9,8 @@ from femcrowd import Simulation, load_case
 from femcrowd.cli import main
 from femcrowd.macro.stairs import STAIR_SPEEDS
 
+from ..support import CASES
+
 #: the corridor of tests/mesh/test_building.py (upper floor x in [0, 4] at z = 3, a stair over x in [4, 8], 5 m
 #: along its slope, the ground floor x in [8, 12]) with an exit at each end: "top" at x = 0, "exit" at x = 12
 BOTH_ENDS = """
@@ -75,6 +77,21 @@ def test_a_stair_is_walked_up_and_down_at_its_own_speeds(building, exit, density
     upwind scheme's diffusion, as the walk of tests/mesh/test_building.py)."""
     exact = before / 1.3 + 5.0 / speed + after / 1.3
     assert median(building, exit, density) == pytest.approx(exact, rel=2e-3)
+
+
+@pytest.mark.parametrize(("exit", "climbs", "speed"), [("exit_top", True, 0.61), ("exit_bottom", False, 0.75)])
+def test_the_speed_on_the_stair_is_that_of_the_direction_of_the_route(exit, climbs, speed):
+    """RiMEA 2 and 3's stair (meshes/rimea/test02_stair.toml, an exit above and one below) with { up =
+    "weidmann-up", down = "rimea-down" }: heading for the exit above, U climbs every cell of the stair at 0.61 m/s
+    along its slope (the lift of U, |U|^2 + (s . U)^2 = v^2); heading below, it descends at 0.75 m/s."""
+    simulation = Simulation(load_case(CASES / "rimea" / "test02-stair-up", {
+        "boundary.exits": [exit], "velocity.speeds": {"stair": {"up": "weidmann-up", "down": "rimea-down"}}}))
+    velocity = simulation.model.solver.velocities[0]
+    stair = np.asarray(velocity.domain.mesh.subdomains["stair"])
+    u = velocity.cells(simulation.scene.boundary.at(0.0))[stair]
+    rise = np.einsum("ij,ij->i", velocity.domain.slope[stair], u)
+    assert np.all(rise > 0) if climbs else np.all(rise < 0)
+    assert np.allclose(np.sqrt((u * u).sum(axis=1) + rise ** 2), speed, rtol=1e-12, atol=0)
 
 
 def test_the_published_speeds_are_the_cited_figures():
