@@ -1,7 +1,8 @@
-"""What the models offer a case file: the names of the transports, the speed laws, the disc strategies and the
-exact solutions (with their parameters), and the check of a speed law. The case layer (case/schema.py) asks
-here; a model is imported at the first question about it, so that ``import femcrowd.case`` needs none of them,
-and the lists live where the models define them (``TRANSPORTS``, ``NAMES``, ``STRATEGIES``, ``SOLUTIONS``)."""
+"""What the models offer a case file: the names of the transports, the speed laws, the disc strategies, the
+exact solutions (with their parameters) and the published stair speeds, and the check of a speed law. The case
+layer (case/schema.py) asks here; a model is imported at the first question about it, so that ``import
+femcrowd.case`` needs none of them, and the lists live where the models define them (``TRANSPORTS``, ``NAMES``,
+``STRATEGIES``, ``SOLUTIONS``, ``STAIR_SPEEDS``)."""
 
 import importlib
 import inspect
@@ -18,6 +19,12 @@ def transports() -> tuple:
 def speed_laws() -> tuple:
     """The named laws of ``[velocity] speed_law`` (macro/speed_law.py); any other value is an expression in rho."""
     return tuple(importlib.import_module("femcrowd.macro.speed_law").NAMES)
+
+
+@cache
+def stair_speeds() -> tuple:
+    """The names of the published stair speeds of ``[velocity] speeds`` (macro/stairs.py)."""
+    return tuple(importlib.import_module("femcrowd.macro.stairs").STAIR_SPEEDS)
 
 
 def speed_law_error(spec: str):

@@ -94,8 +94,10 @@ SCHEMA = {
         "type": Key("exits", "choice", '"exits": U = -speed grad d / |grad d|, d the walking distance to the '
                     'nearest exit; "field": U given by ux, uy', ("exits", "field")),
         "speed": Key(1.0, "expr", "desired speed (m/s) for type exits: a number >= 0 or an expression in x, y"),
-        "speeds": Key({}, "regions", "for type exits: the desired speed (m/s) per physical surface group, in place "
-                      "of speed there, e.g. { stair = 0.6 } for the stair of a building (docs/floors.md)"),
+        "speeds": Key({}, "speeds", "for type exits: the desired speed (m/s, along the slope) per physical surface "
+                      "group, in place of speed there, e.g. { stair = 0.6 } for the stair of a building; a stair's "
+                      "{ up = ..., down = ... }: the speed of the direction people walk there; a speed is a number or "
+                      "the name of a published one, e.g. \"weidmann-up\" (docs/floors.md, \"Stair speeds\")"),
         "ux": Key(0.0, "expr", "x component of U (m/s) for type field: an expression in x, y, t"),
         "uy": Key(0.0, "expr", "y component of U (m/s) for type field: an expression in x, y, t"),
         "speed_law": Key("constant", "law", SPEED_LAW_DOC),
@@ -313,6 +315,28 @@ def _regions(spec, value):
     return value
 
 
+def _speeds(spec, value):
+    """velocity.speeds: per surface group a speed, or a stair's { up = speed, down = speed }; a speed a number >= 0
+    (m/s) or the name of a published one (registry.stair_speeds)."""
+    if not isinstance(value, dict):
+        raise Refused("expected a table of surface-group names to speeds")
+    names = registry.stair_speeds()
+
+    def speed(v, sub):
+        if not (isinstance(v, str) and v in names or is_number(v) and math.isfinite(v) and v >= 0):
+            raise Refused(f"expected a speed >= 0 (m/s) or one of {', '.join(map(repr, names))}", sub, v)
+
+    for name, v in value.items():
+        if not isinstance(v, dict):
+            speed(v, name)
+        elif set(v) != {"up", "down"}:
+            raise Refused("expected a speed or a stair's { up = speed, down = speed }", name, v)
+        else:
+            for direction in ("up", "down"):
+                speed(v[direction], f"{name}.{direction}")
+    return value
+
+
 def _law(spec, value):
     """A speed law: one of the models' names, or an expression in rho (femcrowd.registry checks it)."""
     if not isinstance(value, str):
@@ -419,7 +443,8 @@ def _tables(spec, value):
 
 #: the check of each kind of key: checker(spec, raw value) -> clean value, or Refused
 CHECKERS = {"str": _string, "bool": _boolean, "choice": _choice, "number": _number, "int": _number,
-            "expr": _expression, "strlist": _strings, "fields": _fields, "regions": _regions, "law": _law,
+            "expr": _expression, "strlist": _strings, "fields": _fields, "regions": _regions, "speeds": _speeds,
+            "law": _law,
             "exact": _exact, "radius": _radius, "name": _name, "point": _point_value, "polygon": _polygon,
             "capacities": _capacities, "schedules": _schedules, "table_array": _tables,
             "profile": _profile}

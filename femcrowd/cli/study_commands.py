@@ -185,7 +185,7 @@ def stress(out, only, cases, force, checks, quiet):
               help="Run only this model and setting (repeatable; default: all). macro, micro: the paper's; "
                    "-capacity: a capacity of 1.9 persons/(m s) on every door; -pushing: Weidmann's law with "
                    "push 0.2; -recommended: the settings of docs/validation.md; -routes: the recommended ones with "
-                   "the route choice velocity.route = \"congestion\" (tests 10 and 11 only).")
+                   "the route choice velocity.route = \"congestion\" (tests 10, 11 and 14 only).")
 @click.option("--seeds", type=click.IntRange(min=1), default=None, metavar="N",
               help="Run each disc variant N times, with micro.seed = 1 to N (OUT/<case>-<model>-seed<k>), and give "
                    "each of its figures as the median (min-max) over the seeds, its verdict as pass k/N, fail k/N (the "
@@ -195,10 +195,12 @@ def stress(out, only, cases, force, checks, quiet):
 def rimea(out, only, models, seeds, quiet):
     """Run the RiMEA verification tests of cases/rimea with both models and print the table.
 
-    Tests 1 (corridor), 4 (fundamental diagram), 6 (corner), 9 (four doors,
-    then two), 10 (assigned exits), 11 (exit choice) and 12 (bottlenecks) of
-    the RiMEA guideline, as docs/rimea.md describes them: the criterion as
-    RiMEA states it, each model and setting's result, pass or fail. A failed
+    Tests 1 (corridor), 2 and 3 (up and down a stair), 4 (fundamental
+    diagram), 6 (corner), 8 (a three-storey building), 9 (four doors, then
+    two), 10 (assigned exits), 11 (exit choice), 12 (bottlenecks), 13 (a jam
+    in front of a stair) and 14 (routes over floors) of the RiMEA guideline,
+    as docs/rimea.md describes them: the criterion as RiMEA states it, each
+    model and setting's result, pass or fail (8 and 14: documented). A failed
     verdict is a result (the docs say where a model cannot meet a criterion,
     and why), not an error.
 
@@ -220,7 +222,7 @@ def rimea(out, only, models, seeds, quiet):
     table = rm.table_markdown(rows)
     write_text(make_directory(out) / "rimea.md", table, sync=True)
     click.echo("\n" + table)
-    failed = sum(not v[0].passed for _, verdicts in rows for v in verdicts.values() if v is not None)
+    failed = sum(v[0].passed is False for _, verdicts in rows for v in verdicts.values() if v is not None)
     click.echo(f"{len(rows)} tests, {failed} failed verdicts, in {clock.seconds:.0f} s; "
                f"table: {Path(out) / 'rimea.md'}; runs: {out}/<case>-<model>")
 

@@ -15,6 +15,7 @@ import numpy as np
 from ..case import Case, Expression
 from ..errors import InputError
 from ..macro.speed_law import SpeedLaw
+from ..macro.stairs import Climbs, speed_value
 from ..macro.velocity import CongestionVelocity, ExitsVelocity, FieldVelocity
 from ..mesh import Boundary, Domain
 
@@ -63,24 +64,38 @@ def desired_velocity(case: Case, domain: Domain, boundary: Boundary, spec=None, 
         law = SpeedLaw(spec["speed_law"], case["model"]["rho_max"], spec["push"], (case.file, key("speed_law")))
         velocity = CongestionVelocity(domain, speed, targets, law, case["velocity"]["route_every"],
                                       case["velocity"]["walls"])
-        region_speeds(case, domain, velocity.speed)
+        region_speeds(case, domain, velocity)
         return velocity
     velocity = ExitsVelocity(domain, speed, targets, case["velocity"]["walls"])
-    region_speeds(case, domain, velocity.speed)
+    region_speeds(case, domain, velocity)
     velocity.cells(boundary.at(0.0))
     return velocity
 
 
-def region_speeds(case: Case, domain: Domain, speed: np.ndarray) -> None:
-    """velocity.speeds: the desired speed per physical surface group (a stair's), written into the cells' speed."""
+def region_speeds(case: Case, domain: Domain, velocity: ExitsVelocity) -> None:
+    """velocity.speeds: the desired speed per physical surface group (a stair's), written into the cells' speed; a
+    stair's { up = ..., down = ... } into velocity.climbs, the speed of each cell then chosen by the direction U
+    takes there (macro/stairs.py). A speed is a number (m/s) or the name of a published one (STAIR_SPEEDS)."""
     subdomains = domain.mesh.subdomains or {}
+    cells, up, down = [], [], []
     for name, value in case["velocity"]["speeds"].items():
+        key = f"velocity.speeds.{name}"
         if name not in subdomains:
-            raise InputError(case.file, f"velocity.speeds.{name}", value,
+            raise InputError(case.file, key, value,
                              f"no surface group of that name (groups: {', '.join(subdomains) or 'none'})")
-        if value < 0:
-            raise InputError(case.file, f"velocity.speeds.{name}", value, "a desired speed must be >= 0")
-        speed[np.asarray(subdomains[name])] = value
+        group = np.asarray(subdomains[name])
+        if not isinstance(value, dict):
+            velocity.speed[group] = speed_value(value)
+            continue
+        if domain.slope is None or not np.any(domain.slope[group]):
+            raise InputError(case.file, key, value, "up and down speeds need a stair (a sloped surface group); "
+                             "give one speed")
+        cells.append(group)
+        up.append(np.full(len(group), speed_value(value["up"])))
+        down.append(np.full(len(group), speed_value(value["down"])))
+        velocity.speed[group] = np.minimum(up[-1], down[-1])
+    if cells:
+        velocity.climbs = Climbs(np.concatenate(cells), np.concatenate(up), np.concatenate(down))
 
 
 def initial_density(case: Case, domain: Domain, source=None, key="initial.density", people=None,

@@ -83,6 +83,7 @@ class ExitsVelocity:
         self.targets = None if targets is None else frozenset(targets)
         self.eikonal = Eikonal(domain.points, domain.triangles, domain.z)
         self.cost = None    # per cell: None, the geodesic distance (CongestionVelocity sets it)
+        self.climbs = None  # the stairs with up and down speeds (macro/stairs.py Climbs; velocity.speeds)
         self._cells = {}  # per set of open target exits
         self.distance = {}
 
@@ -102,14 +103,16 @@ class ExitsVelocity:
 
     def _down(self, grad, exits, level) -> np.ndarray:
         """U = -speed grad / |grad| per cell, on a building its lift (_steepest) (0 where the gradient is 0 or not
-        finite), with the wall treatment of ``walls`` (level: the potential per cell, which orders the cells that
-        are made to drain)."""
+        finite; on a stair with up and down speeds, the speed of the direction U takes there: macro/stairs.py),
+        with the wall treatment of ``walls`` (level: the potential per cell, which orders the cells that are made
+        to drain)."""
         grad, norm = self._steepest(grad)
         ok = np.isfinite(norm) & (norm > 0)
+        speed = self.speed if self.climbs is None else self.climbs.speed(self.speed, self.domain.slope, -grad)
         cells = np.zeros((self.domain.ncells, 2))
-        cells[ok] = -(self.speed[ok] / norm[ok])[:, None] * grad[ok]
+        cells[ok] = -(speed[ok] / norm[ok])[:, None] * grad[ok]
         if self.walls == "slip":
-            return wall_treatment(self.domain, exits, cells, self.speed, level)
+            return wall_treatment(self.domain, exits, cells, speed, level)
         return cells
 
     def _steepest(self, grad):

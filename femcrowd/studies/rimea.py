@@ -1,4 +1,4 @@
-"""The RiMEA verification tests that apply to a 2D model without stairs (``femcrowd rimea``, docs/rimea.md).
+"""The RiMEA verification tests that apply to femcrowd (``femcrowd rimea``, docs/rimea.md).
 
 RiMEA e.V., "Guideline for Microscopic Evacuation Analysis", version 3.0 (2016) and later: each test states
 a scene and the result a model must show. The cases are ``cases/rimea/<test>`` (geometries as in
@@ -6,7 +6,7 @@ JuPedSim's RiMEA tests, Juelich Supercomputing Centre); each runs with every var
 (:data:`VARIANTS`): the paper's density model and its discs (radius 0.23 m: pi r^2 / hexagonal packing =
 1 / 5.4 m^2, so that a disc is one person at the saturation density rho_max = 5.4 persons/m^2), and the
 settings docs/validation.md recommends for realistic door flows (door capacities, a speed law that pushes,
-arch-breaking discs), and in the tests of route choice (10, 11) the recommended settings with the route choice
+arch-breaking discs), and in the tests of route choice (10, 11, 14) the recommended settings with the route choice
 that sees the crowd (``velocity.route = "congestion"``, femcrowd/macro/velocity.py CongestionVelocity). Each test
 judges what a user reads from the run: history, summary, measurements.csv. The disc runs depend on the
 sampling of the discs and their fluctuation (``micro.seed``), and which arch holds at a door even on round-off:
@@ -64,16 +64,18 @@ VARIANTS = {
 }
 MODELS = tuple(VARIANTS)
 #: the variants every test runs with (unless it names its own): all but the route choice, which only the tests of
-#: route choice (10, 11) run
+#: route choice (10, 11, 14) run
 PLAIN = MODELS[:6]
-#: the density model's columns of PLAIN: the tests the discs cannot run (4: a density; 2, 3: stairs, docs/floors.md)
+#: the density model's columns of PLAIN: the tests the discs cannot run (4: a density; 2, 3, 8, 13, 14: stairs,
+#: docs/floors.md)
 MACRO = PLAIN[:4]
 
 
 @dataclass
 class Verdict:
-    """What a model shows in a test and whether that meets the criterion: `text`, a format string of the
-    `figures` (``"N4 {n4:.0f}"``), so that the figures of several seeds can be put together (:class:`Spread`)."""
+    """What a model shows in a test and whether that meets the criterion (None: a test whose result RiMEA asks to
+    document, 8 and 14): `text`, a format string of the `figures` (``"N4 {n4:.0f}"``), so that the figures of
+    several seeds can be put together (:class:`Spread`)."""
 
     text: str
     figures: dict
@@ -85,7 +87,7 @@ class Verdict:
 
     @property
     def label(self) -> str:
-        return "pass" if self.passed else "fail"
+        return "documented" if self.passed is None else "pass" if self.passed else "fail"
 
 
 @dataclass
@@ -229,10 +231,12 @@ def fundamental_diagram(results) -> Verdict:
 LEFT_BEHIND = 0.0005
 
 
-def evacuation_time(result) -> float:
-    """The first time at which all but LEFT_BEHIND of the people have left: the last person, for a density."""
+def evacuation_time(result, inside=None) -> float:
+    """The first time at which fewer than `inside` persons are inside (default LEFT_BEHIND of the people): the last
+    person, for a density."""
     h = result.history
-    gone = np.flatnonzero(h["evacuated"] >= (1 - LEFT_BEHIND) * people(result))
+    inside = LEFT_BEHIND * people(result) if inside is None else inside
+    gone = np.flatnonzero(h["evacuated"] >= people(result) - inside)
     return float(h["time"][gone[0]]) if len(gone) else np.inf
 
 
@@ -304,6 +308,56 @@ def bottlenecks(results) -> Verdict:
     return Verdict("J_b {jb:.2f} /s, J_e {je:.2f} /s", {"jb": jb, "je": je}, je >= jb - 0.05)
 
 
+#: test 8: the desired speeds on the stairs of the three-storey building (m/s, along the slope), one run each
+STAIR_STUDY = (0.5, 0.65, 0.8)
+
+
+def parameter_study(results) -> Verdict:
+    """Test 8: the evacuation time (the last person out: less than half a person inside) for each stair speed of
+    STAIR_STUDY.
+    RiMEA asks how the time depends on the parameter, no criterion: documented, with whether it falls as the stairs
+    get faster."""
+    times = [evacuation_time(r, 0.5) for r in results]
+    text = ", ".join(f"{v:g} m/s: {{t{k}:.1f}} s" for k, v in enumerate(STAIR_STUDY[:len(times)]))
+    falls = bool(np.all(np.diff(times) < 0))
+    return Verdict(text + ("; falls as the stairs get faster" if falls else "; does not fall as the stairs get faster"),
+                   {f"t{k}": t for k, t in enumerate(times)}, None)
+
+
+#: test 13: the corridor's area (m^2: 11.5 m x 2 m, meshes/rimea/test13_stair.toml)
+CORRIDOR_AREA = 23.0
+
+
+def stair_congestion(results) -> Verdict:
+    """Test 13: the flow into the corridor J_c (the people past the room and its entrance: mass - on_room -
+    on_entrance) and onto the stair J_s (on_stair + on_landing + evacuated), each while the middle 80 % pass
+    (:func:`flow`), and the most people the corridor held, as a density. A jam in front of the stair (judged as
+    JuPedSim): J_s < J_c - 0.05 persons/s."""
+    r = results[0]
+    h, n = r.history, people(r)
+    counts = {"time": h["time"], "corridor_count": n - h["on_room"] - h["on_entrance"],
+              "stair_count": h["on_stair"] + h["on_landing"] + h["evacuated"]}
+    jc, js = flow(counts, "corridor", n), flow(counts, "stair", n)
+    density = float(h["on_corridor"].max()) / CORRIDOR_AREA
+    return Verdict("J_c {jc:.2f} /s, J_s {js:.2f} /s, corridor up to {density:.2f} persons/m^2",
+                   {"jc": jc, "js": js, "density": density}, js < jc - 0.05)
+
+
+def routes_over_floors(results) -> Verdict:
+    """Test 14: who takes the short route (down the left stair: the flow through its head summed over the steps)
+    and who the long one (the others). RiMEA asks no criterion but the state, short, long or mixed: documented."""
+    r = results[0]
+    h, n = r.history, people(r)
+    short = float(np.sum(h["flow_left_head"][1:] * np.diff(h["time"])))
+    long = max(n - short, 0.0)
+    state = "short" if long < 0.5 else "long" if short < 0.5 else "mixed"
+    end, inside = evacuation_time(r, 0.5), n - float(h["evacuated"][-1])
+    out = "all out at {end:.0f} s" if np.isfinite(end) else "{inside:.1f} inside at {end:.0f} s"
+    return Verdict(f"{state}: short {{short:.1f}}, long {{long:.1f}} of {{n:.0f}}; {out}",
+                   {"short": short, "long": long, "n": n, "inside": inside,
+                    "end": end if np.isfinite(end) else float(h["time"][-1])}, None)
+
+
 TESTS = [
     RimeaTest("1", "speed in a corridor", "one person at 1.33 m/s covers 40 m in 26 s to 34 s",
               ("test01-corridor",), corridor),
@@ -321,6 +375,11 @@ TESTS = [
     RimeaTest("6", "movement around a corner", "20 persons go around a left corner without passing through "
               "walls (judged: all leave by the exit; macro: no mass lost, micro: no disc outside)",
               ("test06-corner",), corner),
+    RimeaTest("8", "parameter analysis", "a three-storey building: how the evacuation time depends on a parameter "
+              f"(here the desired speed on the stairs, {', '.join(f'{v:g}' for v in STAIR_STUDY)} m/s; documented, "
+              "no criterion)", tuple(("test08-three-storeys", {"velocity.speeds": {"stair_01": v, "stair_12": v}})
+                                     for v in STAIR_STUDY), parameter_study,
+              variants=("macro", "macro-recommended")),
     RimeaTest("9", "leaving a large public space", "1000 persons, four doors; with doors 1 and 2 locked it takes "
               "approximately twice as long (judged: 1.5 <= T2 / T4 <= 2.5, T when the last person has left)",
               ("test09-four-exits", "test09-two-exits"), four_and_two_doors, {"time.end": 40.0}),
@@ -334,6 +393,14 @@ TESTS = [
     RimeaTest("12", "effect of bottlenecks", "150 persons leave a room through a corridor into a second room; "
               "no congestion at the last exit (judged as JuPedSim: J_e >= J_b - 0.05 persons/s)",
               ("test12-bottlenecks",), bottlenecks, doors=("corridor",)),
+    RimeaTest("13", "flow at a stair", "150 persons walk from a room along a corridor 2 m wide to a stair up; they "
+              "walk slower on the stair, so a jam forms in front of it (judged as JuPedSim: the flow onto the stair "
+              "J_s < the flow into the corridor J_c - 0.05 persons/s)", ("test13-stair-congestion",),
+              stair_congestion, doors=("stair_foot", "stair_head"), variants=MACRO),
+    RimeaTest("14", "route choice over floors", "150 persons choose between a short route down and up two stairs "
+              "and a long one on their floor: which they take, short, long or mixed (documented, no criterion)",
+              ("test14-routes-over-floors",), routes_over_floors,
+              doors=("left_foot", "left_head", "right_foot", "right_head"), variants=(*MACRO, "macro-routes")),
 ]
 
 

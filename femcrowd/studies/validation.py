@@ -255,8 +255,9 @@ NUMBERS = ("width_m", "specific_flow", "flow", "density", "speed", "persons", "l
 
 def experiments(kind: str | None = None) -> list:
     """The published figures of experiments.csv (those of one `kind` if given: measured, guideline, fit,
-    diagram (fundamental-diagram figures: density, speed), or check, the figures of femcrowd's independent
-    check), as dicts; the numbers as floats, None where empty."""
+    diagram (fundamental-diagram figures: density, speed), check, the figures of femcrowd's independent
+    check, or stair, speeds up and down stairs: docs/floors.md), as dicts; the numbers as floats, None where
+    empty."""
     with open(EXPERIMENTS, newline="") as f:
         rows = [r for r in csv.DictReader(f) if kind is None or r["kind"] == kind]
     for r in rows:

@@ -88,7 +88,8 @@ def _keys(schema, prefix=""):
 KEYS = sorted(_keys(SCHEMA))
 #: a value the schema accepts for each kind of key (choices: the first), so that drawn cases get past the first key
 GOOD = {"str": "a", "bool": True, "number": 1.0, "int": 1, "expr": "0.5 * x", "strlist": ["exit"],
-        "fields": ["density"], "regions": {"crowd": 0.5}, "law": "linear", "exact": {},
+        "fields": ["density"], "regions": {"crowd": 0.5}, "speeds": {"stair": {"up": "weidmann-up", "down": 0.7}},
+        "law": "linear", "exact": {},
         "radius": 0.2, "name": "a", "point": [0.0, 1.0], "polygon": [[0, 0], [1, 0], [0, 1]], "capacities": {"a": 1.0},
         "schedules": {"exit": [[0, 1]]}, "table_array": []}
 

@@ -7,6 +7,7 @@ from click.testing import CliRunner
 
 from femcrowd import Simulation, load_case
 from femcrowd.cli import main
+from femcrowd.macro.stairs import STAIR_SPEEDS
 from femcrowd.mesh.floorplan import build_mesh
 from femcrowd.studies import validation
 
@@ -68,7 +69,13 @@ def test_validate_writes_the_table_the_runs_and_the_plot(tmp_path):
 def test_every_experiment_has_a_source_and_says_how_it_was_read():
     rows = validation.experiments()
     assert len(rows) > 20 and all(r["source"] and r["where"] and r["note"] for r in rows)
-    assert all(0.5 < r["specific_flow"] < 5 for r in rows)   # persons/(m s)
+    assert all(0.5 < r["specific_flow"] < 5 for r in rows if r["kind"] != "stair")   # persons/(m s)
+    # the stair speeds (docs/floors.md, "Stair speeds"): each row says its direction; free speeds are those named
+    stairs = validation.experiments("stair")
+    assert len(stairs) == 26 and all(r["note"].split(";")[0] in ("up", "down") and 0.1 < r["speed"] < 2
+                                     for r in stairs)
+    named = {r["note"].split("femcrowd name ")[1]: r["speed"] for r in stairs if "femcrowd name" in r["note"]}
+    assert len(named) == 6 and all(STAIR_SPEEDS[name] == pytest.approx(v, rel=1e-4) for name, v in named.items())
 
 
 def test_an_unknown_setting_is_one_line(tmp_path):
