@@ -17,6 +17,7 @@ is taken between the two largest sizes.
     python benchmarks/scale.py --long               # the 10^6 hall until empty, end to end (femcrowd.run)
     python benchmarks/scale.py --long --long-size 1e5 --transport upwind --cfl 0.5
     python benchmarks/scale.py --long --capacity 1   # the same, its door capped at 1 (density x speed) per metre
+    python benchmarks/scale.py --long --capacity 1 --long-size 2.5e5 --end 20 --counters   # the projection's counters
 
 ``--capacity C`` gives the door a capacity of C per metre and per second (units of rho_max x m/s: 1 is the
 flow of a saturated crowd walking at its desired speed, without the pressure's push): benchmarks/capacity.py
@@ -171,26 +172,60 @@ def one_size(target, steps, capacity=None):
     return out
 
 
-def long_run(target, transport, cfl, capacity=None):
+def counted_projections():
+    """The projection counters of every macro step of this process (MacroStep.projection), appended to the list
+    returned: MacroSolver.step is wrapped, the run itself is unchanged."""
+    from femcrowd.macro import MacroSolver
+
+    steps, step = [], MacroSolver.step
+
+    def counted(self, *args, **kwargs):
+        result = step(self, *args, **kwargs)
+        steps.append(result.projection)
+        return result
+
+    MacroSolver.step = counted
+    return steps
+
+
+def projection_phases(steps):
+    """Sums and per-step means of the projection counters, split at the step of the largest saturated set: the
+    queue growing (its front running into the oncoming crowd) and the queue draining."""
+    keys = ("iterations", "factorizations", "band_solves", "rebuilds", "predict", "setup", "solve", "active_set")
+    peak = int(np.argmax([s["unknowns"] for s in steps])) + 1 if steps else 0
+    out = {}
+    for name, part in (("growing", steps[:peak]), ("draining", steps[peak:]), ("all", steps)):
+        sums = {key: float(sum(s[key] for s in part)) for key in keys}
+        out[name] = {"steps": len(part), "max_unknowns": max((s["unknowns"] for s in part), default=0),
+                     **{f"{key} per step": sums[key] / max(len(part), 1) for key in keys},
+                     **{f"{key} total": sums[key] for key in ("predict", "setup", "solve", "active_set")}}
+    return out
+
+
+def long_run(target, transport, cfl, capacity=None, end=1000.0, counters=False):
     """The complete evacuation of the hall through the user path (femcrowd.run), timed end to end: it stops
-    once less than time.empty_fraction of the crowd is inside."""
+    once less than time.empty_fraction of the crowd is inside (or at time `end`). counters: the projection's
+    counters per phase of the run (projection_phases)."""
     from femcrowd import load_case, run
     from femcrowd.driver.reading import read_history
 
+    steps = counted_projections() if counters else None
     path = mesh_file(target)
-    case_dir = CACHE / (f"long_{int(target)}_{transport}_{cfl:g}" + (f"_c{capacity:g}" if capacity else ""))
+    case_dir = CACHE / (f"long_{int(target)}_{transport}_{cfl:g}" + (f"_c{capacity:g}" if capacity else "")
+                        + (f"_end{end:g}" if end != 1000.0 else ""))
     case_dir.mkdir(parents=True, exist_ok=True)
     (case_dir / "case.toml").write_text(
         f'title = "benchmark hall, {int(target)} triangles"\n[mesh]\nfile = "{path}"\n'
         f'[boundary]\nexits = ["exit"]\n' + (f"capacity = {{ exit = {capacity!r} }}\n" if capacity else "") +
         f'[initial]\ndensity = "{DENSITY}"\n'
-        f'[scheme]\ntransport = "{transport}"\n[time]\nend = 1000.0\ncfl = {cfl!r}\n[output]\nevery = 20.0\n')
-    tic = time.perf_counter()
+        f'[scheme]\ntransport = "{transport}"\n[time]\nend = {end!r}\ncfl = {cfl!r}\n[output]\nevery = 20.0\n')
+    tic, cpu = time.perf_counter(), time.process_time()
     summary = run(load_case(case_dir), out=case_dir / "output", force=True).summary
-    wall = time.perf_counter() - tic
+    wall, cpu = time.perf_counter() - tic, time.process_time() - cpu
     step_seconds = read_history(case_dir / "output" / "history.csv")["step_seconds"][1:]
     tenth = max(1, len(step_seconds) // 10)
-    return {"triangles": summary["mesh"]["triangles"], "steps": summary["steps"], "wall": wall,
+    return {"triangles": summary["mesh"]["triangles"], "steps": summary["steps"], "wall": wall, "cpu": cpu,
+            "projection_phases": None if steps is None else projection_phases(steps),
             "evacuation_time": summary["evacuation_time"], "simulated_time": summary["final_time"],
             "peak_gb": peak_memory_gb(), "timing": summary["timing"], "transport": transport, "cfl": cfl,
             "step_seconds": {"median": float(np.median(step_seconds)),
@@ -263,6 +298,9 @@ def main():
     parser.add_argument("--transport", default="implicit", help="scheme.transport of the --long run")
     parser.add_argument("--cfl", type=float, default=20.0, help="time.cfl of the --long run")
     parser.add_argument("--capacity", type=float, help="capacity of the door, per metre (rho_max x m/s)")
+    parser.add_argument("--end", type=float, default=1000.0, help="time.end of the --long run (default: until empty)")
+    parser.add_argument("--counters", action="store_true",
+                        help="--long: the projection's counters and seconds, queue growing / draining")
     parser.add_argument("--one", type=float, help=argparse.SUPPRESS)
     parser.add_argument("--long-child", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -270,16 +308,19 @@ def main():
         print(json.dumps(one_size(args.one, args.steps, args.capacity)))
         return
     capped = ["--capacity", str(args.capacity)] if args.capacity else []
-    long_args = ["--long-size", str(args.long_size), "--transport", args.transport, "--cfl", str(args.cfl), *capped]
+    long_args = ["--long-size", str(args.long_size), "--transport", args.transport, "--cfl", str(args.cfl), *capped,
+                 "--end", str(args.end), *(["--counters"] if args.counters else [])]
     if args.long_child:
-        print(json.dumps(long_run(args.long_size, args.transport, args.cfl, args.capacity)))
+        print(json.dumps(long_run(args.long_size, args.transport, args.cfl, args.capacity, args.end, args.counters)))
         return
     if args.long:
         mesh_file(args.long_size)   # meshing is not part of the timing
         r = child(["--long-child", *long_args])
-        print(f"{r['triangles']} triangles, {r['transport']} transport at cfl {r['cfl']:g}: empty at "
-              f"t = {r['evacuation_time']:.1f} s after {r['steps']} steps, {r['wall']:.0f} s end to end "
-              f"({r['wall'] / 60:.1f} min), peak memory {r['peak_gb']:.2f} GB")
+        until = "stopped at" if r["evacuation_time"] is None else "empty at"
+        print(f"{r['triangles']} triangles, {r['transport']} transport at cfl {r['cfl']:g}: {until} "
+              f"t = {r['evacuation_time'] or r['simulated_time']:.1f} s after {r['steps']} steps, "
+              f"{r['wall']:.0f} s end to end "
+              f"({r['wall'] / 60:.1f} min, {r['cpu']:.0f} s of CPU), peak memory {r['peak_gb']:.2f} GB")
         print(json.dumps(r, indent=1))
         return
     results = []

@@ -27,13 +27,16 @@ class EnvelopeCholesky:
     envelope and a new S costs one numeric factorisation (CHOLMOD rather than SuperLU or an
     AMG set-up: docs/performance.md).
 
-    An S that grows from the factorised S_0 by a few cells J (the last stragglers of an
-    active-set iteration) is solved by bordering: with C = A_{S_0 J},
+    An S that differs from the factorised S_0 by a few cells (the last stragglers of an
+    active-set iteration: J joined, D left) is solved by bordering. The cells of D keep their
+    rows of A_00 but x_D = 0 is imposed by a multiplier on their equations: with
+    B = [A_{S_0 J} | E_D] (E_D the unit columns of D) and z = (x_J, multipliers),
 
-        Sigma = A_JJ - C^T A_00^{-1} C,   x_J = Sigma^{-1} (b_J - C^T A_00^{-1} b_0),
-        x_0 = A_00^{-1} (b_0 - C x_J),
+        Sigma = diag(A_JJ, 0) - B^T A_00^{-1} B,   Sigma z = (b_J, 0) - B^T A_00^{-1} b_0,
+        x_0 = A_00^{-1} (b_0 - B z)   (b_0 = 0 on D, and then x_D = 0),
 
-    through the factor P A_00 P^T = L D L^T: |J| + 1 forward substitutions and one backward.
+    through the factor P A_00 P^T = L D L^T: |J| + |D| + 1 forward substitutions and one
+    backward.
     """
 
     def __init__(self, A, envelope, size, order=None):
@@ -59,11 +62,12 @@ class EnvelopeCholesky:
         return self.cells[self.active]
 
     def needs_factorisation(self, cells):
-        """False when S = cells is the factorised S or grows from it by at most BORDER_MAX cells."""
+        """False when S = cells is the factorised S or differs from it by at most BORDER_MAX cells (joined
+        or left)."""
         if self.active is None:
             return True
         kept = np.count_nonzero(self.mask[self.position[cells]])
-        return kept != len(self.active) or len(cells) - kept > BORDER_MAX
+        return (len(self.active) - kept) + (len(cells) - kept) > BORDER_MAX
 
     def prepare(self, cells):
         """Numeric factorisation of K for S = cells when needed; returns whether one was made."""
@@ -81,29 +85,34 @@ class EnvelopeCholesky:
         """x on S = cells with A_SS x = rhs (after prepare(cells))."""
         at = self.position[cells]
         old = self.mask[at]
-        if old.all():
+        self.mask[at] = False
+        left = self.active[self.mask[self.active]]   # D: factorised, no longer in S
+        self.mask[at[old]] = True
+        if old.all() and not left.size:
             return self._substitute(rhs)
         new = at[~old]
         rows = gather(self.A, self.cells[new])
-        k = len(new)
+        k, d = len(new), len(left)
         row = np.repeat(np.arange(k), np.diff(rows.indptr))
         position = self.position[rows.indices]
         coupled = (position >= 0) & self.mask[position]  # entries of C^T = A_{J S_0}
         j = np.minimum(np.searchsorted(new, position), k - 1)
         within = new[j] == position                       # entries of A_JJ
-        A_JJ = np.zeros((k, k))
-        np.add.at(A_JJ, (row[within], j[within]), rows.data[within])
-        V = np.zeros((len(self.cells), k + 1), order="F")  # [b_0 | C], then L^{-1} P [b_0 | C]
-        V[self.active, 0] = rhs[old]
+        sigma = np.zeros((k + d, k + d))
+        np.add.at(sigma, (row[within], j[within]), rows.data[within])
+        V = np.zeros((len(self.cells), k + d + 1), order="F")  # [b_0 | B], then L^{-1} P [b_0 | B]
+        V[at[old], 0] = rhs[old]
         V[position[coupled], 1 + row[coupled]] = rows.data[coupled]
+        V[left, 1 + k + np.arange(d)] = 1.0
         V = self._forward(V)
         if self.inverse_d is None:
             self.inverse_d = np.array(self.factor.solve(np.ones(len(self.cells)), "D")).ravel()
         DV = self.inverse_d[:, None] * V
-        sigma = A_JJ - V[:, 1:].T @ DV[:, 1:]
+        sigma -= V[:, 1:].T @ DV[:, 1:]
+        z = np.linalg.solve(sigma, np.concatenate([rhs[~old], np.zeros(d)]) - V[:, 1:].T @ DV[:, 0])
         x = np.empty(len(at))
-        x[~old] = np.linalg.solve(sigma, rhs[~old] - V[:, 1:].T @ DV[:, 0])
-        x[old] = self._backward(DV[:, 0] - DV[:, 1:] @ x[~old])[self.active]
+        x[~old] = z[:k]
+        x[old] = self._backward(DV[:, 0] - DV[:, 1:] @ z)[at[old]]
         return x
 
     def _substitute(self, rhs):

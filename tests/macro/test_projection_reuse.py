@@ -137,3 +137,27 @@ def test_bordered_solve_of_a_few_new_cells_equals_a_fresh_solve(grown):
     reference = spla.spsolve(A[S][:, S].tocsc(), rhs)
     assert np.abs(factor.solve(S, rhs) - reference).max() <= 1e-10 * np.abs(reference).max()
     assert factor.prepare(np.union1d(S, front[:BORDER_MAX + 1]))  # too many new cells: factorise
+
+
+@pytest.mark.parametrize("joined, left", [(0, 1), (2, 3), (0, BORDER_MAX), (BORDER_MAX // 2, BORDER_MAX // 2)])
+def test_bordered_solve_of_cells_that_joined_and_left_equals_a_fresh_solve(joined, left):
+    """S_0 factorised, S = S_0 without a few of its cells (D: inside S_0 and on its front) and with a few new ones:
+    the bordered solve (x_D = 0 by multipliers) needs no factorisation and equals sparse LU on A_SS."""
+    import scipy.sparse.linalg as spla
+
+    domain = load_domain(MESHES / "room_one_door.msh", ["exit"])
+    A = Boundary(domain).at(0.0).laplacian().tocsr()
+    x = domain.centroid[:, 0]
+    S0 = np.flatnonzero(x > 6.0)
+    factor = EnvelopeCholesky(A, np.flatnonzero(x > 4.0), len(S0))
+    assert factor.prepare(S0)
+    front = np.setdiff1d(A[S0].indices, S0)
+    edge = np.intersect1d(A[front].indices, S0)                # the cells of S_0 next to its front
+    D = np.concatenate([edge[:left - left // 2], S0[len(S0) // 2:][:left // 2]])
+    S = np.union1d(np.setdiff1d(S0, D), front[:joined])
+    assert len(S) == len(S0) + joined - left
+    assert not factor.prepare(S)
+    rhs = np.random.default_rng(joined + 7 * left).uniform(0.5, 1.0, len(S)) * domain.area[S]
+    reference = spla.spsolve(A[S][:, S].tocsc(), rhs)
+    assert np.abs(factor.solve(S, rhs) - reference).max() <= 1e-10 * np.abs(reference).max()
+    assert factor.prepare(np.setdiff1d(S0, edge[:BORDER_MAX + 1]))  # too many cells left: factorise
