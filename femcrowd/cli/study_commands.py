@@ -83,9 +83,9 @@ def convergence(case_dir, levels, cfl, set_values, times, overrides, out, serial
 @force_option
 @quiet_option
 def evacuation_times(case_dir, levels, cfl, set_values, overrides, out, serial, scheduler, force, quiet):
-    """Evacuation times of a macro case under mesh refinement: when 50, 90, 99 % and all but
-    time.empty_fraction of the crowd are out, on each level, with the change between levels, the observed
-    order and Richardson's estimate of the converged time.
+    """Evacuation times of a macro case under mesh refinement: when 50, 90, 99 %, all but
+    time.empty_fraction of the crowd and the last person (all but half a person) are out, on each level,
+    with the change between levels, the observed order and Richardson's estimate of the converged time.
 
     Writes evacuation.csv and evacuation.md (docs/convergence.md, "Evacuation times").
 

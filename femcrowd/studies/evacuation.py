@@ -3,7 +3,8 @@
 A study runs one macro case on a refinement series (the levels and series of a convergence study,
 convergence.plan_study: ``mesh.refine`` = base + 0..N-1, ``--set-values``, ``--cfl``) until the crowd has
 left, and reads on each level the times at which 50 %, 90 %, 99 % and all but ``time.empty_fraction`` of the
-crowd are out. For each time it reports the difference d_k = t_k - t_{k-1} between consecutive levels and the
+crowd are out, and the last person's: when all but half a person (LAST) are out, the time an agent model
+or a drill quotes. For each time it reports the difference d_k = t_k - t_{k-1} between consecutive levels and the
 observed order
 
     p_k = log(|d_{k-1}| / |d_k|) / log(h_{k-1} / h_k),
@@ -27,8 +28,10 @@ from ..timer import Stopwatch
 from .convergence import plan_study
 from .execute import StudyInterrupted, describe, execute
 
-#: the shares of the crowd out whose times are measured; the last one is all but time.empty_fraction
+#: the shares of the crowd out whose times are measured; then all but time.empty_fraction, and all but LAST persons
 SHARES = (0.5, 0.9, 0.99)
+#: the last person is out when fewer than this many persons are inside (the crowd's mass in persons)
+LAST = 0.5
 
 
 def evacuation_times(time, evacuated, total, shares) -> list:
@@ -49,7 +52,13 @@ def evacuation_times(time, evacuated, total, shares) -> list:
 
 
 def share_names(case) -> list:
-    return [f"{100 * s:g} %" for s in SHARES] + [f"all but {case['time']['empty_fraction']:g}"]
+    return [f"{100 * s:g} %" for s in SHARES] + [f"all but {case['time']['empty_fraction']:g}", "last person"]
+
+
+def shares(case, total) -> tuple:
+    """The shares of ``total`` (persons) whose times are read: SHARES, all but time.empty_fraction, all but LAST
+    persons (nan for a crowd of at most LAST persons)."""
+    return (*SHARES, 1.0 - case["time"]["empty_fraction"], 1.0 - LAST / total if total > LAST else math.nan)
 
 
 def run_level(task) -> dict:
@@ -60,10 +69,9 @@ def run_level(task) -> dict:
     result = simulation.run()
     h = result.history
     total = h["mass"][0] + (h["inflow"][-1] if "inflow" in h else 0.0)   # everyone who was ever inside
-    shares = (*SHARES, 1.0 - case["time"]["empty_fraction"])
     return {"cells": simulation.scene.domain.ncells, "h": simulation.scene.domain.h, "steps": len(h["time"]) - 1,
             "wall_seconds": clock.seconds, "cpu_seconds": clock.cpu,
-            "times": evacuation_times(h["time"], h["evacuated"], total, shares)}
+            "times": evacuation_times(h["time"], h["evacuated"], total, shares(case, total))}
 
 
 def observed(values, h) -> tuple[list, list, list]:

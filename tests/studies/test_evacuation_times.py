@@ -8,7 +8,7 @@ import pytest
 from click.testing import CliRunner
 
 from femcrowd.cli import main
-from femcrowd.studies.evacuation import evacuation_times, observed, study
+from femcrowd.studies.evacuation import evacuation_times, observed, shares, study
 
 from ..support import CASES
 
@@ -17,6 +17,15 @@ def test_times_are_read_between_the_steps():
     t = np.linspace(0.1, 10.0, 100)
     assert evacuation_times(t, t, 10.0, (0.5, 0.9, 0.99, 1 - 1e-4)) == pytest.approx([5.0, 9.0, 9.9, 9.999])
     assert math.isnan(evacuation_times(t, 0.5 * t, 10.0, (0.6,))[0])   # never reached
+
+
+def test_the_last_person_is_out_when_half_a_person_is_left():
+    """The last person's share: all but 0.5 of 50 persons is 99 %; a crowd of less than a person has none."""
+    case = {"time": {"empty_fraction": 1e-4}}
+    t = np.linspace(0.1, 10.0, 100)
+    assert shares(case, 50.0)[-1] == pytest.approx(0.99)
+    assert evacuation_times(t, 5 * t, 50.0, shares(case, 50.0)) == pytest.approx([5.0, 9.0, 9.9, 9.999, 9.9])
+    assert math.isnan(evacuation_times(t, 0.03 * t, 0.3, shares(case, 0.3))[-1])
 
 
 def test_orders_and_the_richardson_estimate_of_a_first_order_series():
