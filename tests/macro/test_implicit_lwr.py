@@ -12,7 +12,7 @@ from femcrowd.errors import InputError
 from femcrowd.macro import MacroState
 from femcrowd.macro.diagnostics import invariants
 from femcrowd.macro.speed_law import SpeedLaw
-from femcrowd.macro.transport import ImplicitLWRTransport, ImplicitUpwindTransport
+from femcrowd.macro.transport import ImplicitLWRTransport, ImplicitUpwindTransport, flow_order
 from femcrowd.macro.transport.flow_order import levels
 from femcrowd.macro.velocity import FieldVelocity
 from femcrowd.mesh import Boundary
@@ -131,7 +131,7 @@ def test_an_acyclic_flow_is_solved_by_substitution():
     normal = velocity.normal_on_facets(MacroState.initial(np.zeros((1, domain.ncells)), 1), exits)
     scheme = ImplicitLWRTransport(domain, exits, normal, SpeedLaw("weidmann", 5.4))
     order = scheme.flow_order
-    assert order.acyclic
+    assert order.acyclic and order.small
     position = np.argsort(order.order)
     sender, receiver = scheme.sender[scheme.inner], scheme.receiver[scheme.inner]
     assert np.all(position[sender] < position[receiver])
@@ -140,6 +140,28 @@ def test_an_acyclic_flow_is_solved_by_substitution():
     rho = np.random.default_rng(3).uniform(0.0, 1.0, domain.ncells)
     dt = 20 * scheme.max_dt
     np.testing.assert_allclose(scheme.step(rho, dt).rho, colamd_step(scheme, rho, dt)[2], rtol=0, atol=1e-13)
+
+
+def test_a_whirl_is_solved_by_lu_in_the_flow_order():
+    """A rotating U with an exit: its cycles are longer than SMALL cells, the system is solved by LU in the flow
+    order, and the step is the COLAMD LU's to 1e-13 at 20 x the CFL step; the same for the dense blocks' path
+    (SMALL raised above the largest cycle)."""
+    domain = unit_square(16, exits=["right"])
+    velocity = FieldVelocity(domain, Expression("0.5 - y"), Expression("x - 0.5"))
+    exits = Boundary(domain).at(0.0)
+    normal = velocity.normal_on_facets(MacroState.initial(np.zeros((1, domain.ncells)), 1), exits)
+    scheme = ImplicitLWRTransport(domain, exits, normal, SpeedLaw("weidmann", 5.4))
+    assert not scheme.flow_order.small
+    rho = np.random.default_rng(4).uniform(0.0, 1.0, domain.ncells)
+    dt = 20 * scheme.max_dt
+    expected = colamd_step(scheme, rho, dt)[2]
+    np.testing.assert_allclose(scheme.step(rho, dt).rho, expected, rtol=0, atol=1e-13)
+    sender, receiver = scheme.sender[scheme.inner], scheme.receiver[scheme.inner]
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(flow_order, "SMALL", domain.ncells)
+        scheme.flow_order = flow_order.FlowOrder(sender, receiver, domain.ncells)
+    assert scheme.flow_order.small
+    np.testing.assert_allclose(scheme.step(rho, dt).rho, expected, rtol=0, atol=1e-13)
 
 
 def test_levels_refuse_a_cycle():
