@@ -11,7 +11,8 @@ Scenes (each a TOML floor plan, benchmarks/.cache/peer; JuPedSim reads the same 
   (JuPedSim needs more than 10 minutes for 10 000 agents).
 
 femcrowd runs the macro model with the recommended settings of docs/validation.md (Weidmann's law, push 0.2,
-time.cfl 1, door capacity 1.9 /(m s) on every exit), as `femcrowd run` does (history.csv, a frame every 10 s); JuPedSim
+time.cfl 1, door capacity 1.9 /(m s) on every exit; `--implicit CFL`: the linearly implicit prediction at CFL times
+the median cell's step instead), as `femcrowd run` does (history.csv, a frame every 10 s); JuPedSim
 its default collision-free speed model (Tordeux et al. 2016) at dt = 0.01 s, agents of radius 0.2 m with
 the same desired speed 1.34 m/s, placed at random (`--seed`) in the crowd's area, each heading for the exit
 nearest to it and taken out when it reaches a strip 0.5 m deep inside that exit. Wall time: the set-up and the
@@ -25,7 +26,7 @@ JuPedSim is an optional benchmark dependency: pip install -e '.[peer]' (or pip i
 
     python benchmarks/peer.py                                   # bottleneck, hall with 100 people
     python benchmarks/peer.py --scenes hall --people 100 1000 --repeat 3
-    python benchmarks/peer.py --scenes large-hall --people 10000 --only femcrowd
+    python benchmarks/peer.py --scenes large-hall --people 10000 --only femcrowd --implicit 4
 """
 
 import argparse
@@ -103,8 +104,9 @@ def scene(name: str, people: int) -> tuple:
     return directory, plan, box, people
 
 
-def run_femcrowd(directory: Path) -> dict:
-    """The macro model with the recommended settings, as `femcrowd run` runs it."""
+def run_femcrowd(directory: Path, implicit: float = 0.0) -> dict:
+    """The macro model with the recommended settings, as `femcrowd run` runs it; implicit > 0: the linearly implicit
+    prediction at that cfl on the median cell's step instead of the recommended STEP."""
     import tempfile
 
     import femcrowd
@@ -114,7 +116,8 @@ def run_femcrowd(directory: Path) -> dict:
 
     tic, cpu = time.perf_counter(), time.process_time()
     exits = femcrowd.load_case(directory)["boundary"]["exits"]
-    case = femcrowd.load_case(directory, {**LAW, **STEP, **door_capacity(exits)})
+    step = STEP if not implicit else {"scheme.transport": "implicit", "time.cfl_quantile": 0.5, "time.cfl": implicit}
+    case = femcrowd.load_case(directory, {**LAW, **step, **door_capacity(exits)})
     with tempfile.TemporaryDirectory() as tmp:
         result = femcrowd.run(case, out=Path(tmp) / "out")
     wall, cpu = time.perf_counter() - tic, time.process_time() - cpu
@@ -170,9 +173,9 @@ def _strip(area, a, b, depth: float = 0.5):
     return shapely.Polygon([a, b, b + depth * normal, a + depth * normal])
 
 
-def worker(tool: str, name: str, people: int, seed: int) -> None:
+def worker(tool: str, name: str, people: int, seed: int, implicit: float) -> None:
     directory, plan, box, people = scene(name, people)
-    figures = run_femcrowd(directory) if tool == "femcrowd" else run_jupedsim(plan, box, people, seed)
+    figures = run_femcrowd(directory, implicit) if tool == "femcrowd" else run_jupedsim(plan, box, people, seed)
     print(json.dumps({k: float(v) for k, v in figures.items()}))
 
 
@@ -183,11 +186,13 @@ def main():
     parser.add_argument("--only", choices=["femcrowd", "jupedsim"], help="run one of the two programs")
     parser.add_argument("--repeat", type=int, default=1, help="rounds of the two programs")
     parser.add_argument("--seed", type=int, default=1, help="JuPedSim's placement of the agents")
-    parser.add_argument("--worker", nargs=4, help=argparse.SUPPRESS)
+    parser.add_argument("--implicit", type=float, default=0.0, metavar="CFL",
+                        help="femcrowd with the implicit prediction at CFL x the median cell's step, not STEP")
+    parser.add_argument("--worker", nargs=5, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
-        tool, name, people, seed = args.worker
-        return worker(tool, name, int(people), int(seed))
+        tool, name, people, seed, implicit = args.worker
+        return worker(tool, name, int(people), int(seed), float(implicit))
     tools = [("femcrowd", None, "femcrowd"), ("JuPedSim", None, "jupedsim")]
     tools = [t for t in tools if args.only in (None, t[2])]
     if args.only != "femcrowd" and importlib.util.find_spec("jupedsim") is None:
@@ -195,7 +200,8 @@ def main():
         return 2
     env = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
     runs = [(name, people) for name in args.scenes for people in (args.people if name in HALLS else [90])]
-    print(f"medians of {args.repeat} alternated rounds; femcrowd: macro, recommended settings; JuPedSim "
+    step = f"the implicit prediction at cfl {args.implicit:g} on the median cell" if args.implicit else "STEP"
+    print(f"medians of {args.repeat} alternated rounds; femcrowd: macro, recommended settings ({step}); JuPedSim "
           f"{_version() if args.only != 'femcrowd' else '(not run)'}: collision-free speed model, dt {DT} s, "
           f"seed {args.seed}")
     print("| scene | people | femcrowd wall (CPU) | JuPedSim wall (CPU) | femcrowd evacuation | JuPedSim evacuation "
@@ -204,7 +210,8 @@ def main():
     for name, people in runs:
         scene(name, people)   # meshed once, before anything is timed
         result = rounds(tools, args.repeat,
-                        lambda code, tool: in_process(__file__, (tool, name, people, args.seed), code, env))
+                        lambda code, tool: in_process(__file__, (tool, name, people, args.seed, args.implicit), code,
+                                                          env))
         missing = [{"wall": np.nan, "cpu": np.nan, "evacuation": np.nan, "flow": np.nan, "steps": np.nan,
                     "cells": np.nan}]
         f, j = result.get("femcrowd", missing), result.get("JuPedSim", missing)
