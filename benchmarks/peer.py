@@ -4,10 +4,15 @@ Scenes (each a TOML floor plan, benchmarks/.cache/peer; JuPedSim reads the same 
 - bottleneck: the 1 m bottleneck of docs/validation.md (femcrowd/studies/validation.py: a waiting area of
   8 m x 6 m, a corridor 2 m long, 90 people at 2.5 /m^2 on its first 6 m);
 - hall: a 40 m x 30 m hall with two 2 m exits, in the middle of its short walls, and `--people` people spread
-  evenly over its middle 30 m x 20 m.
+  evenly over its middle 30 m x 20 m;
+- large-hall: the hall scaled by sqrt(10) (126.5 m x 94.9 m, the same 2 m exits and cells), `--people` people
+  over its middle three quarters by two thirds: 10 000 are the density of 1 000 in the hall (about 227 000
+  triangles, some 1 300 s to empty through the two exits at 1.9 /(m s)). `--only femcrowd` runs one program
+  (JuPedSim needs more than 10 minutes for 10 000 agents).
 
 femcrowd runs the macro model with the recommended settings of docs/validation.md (Weidmann's law, push 0.2,
-time.cfl 1, door capacity 1.9 /(m s) on every exit), as `femcrowd run` does (history.csv, a frame every 10 s); JuPedSim
+time.cfl 1, door capacity 1.9 /(m s) on every exit; `--implicit CFL`: the linearly implicit prediction at CFL times
+the median cell's step instead), as `femcrowd run` does (history.csv, a frame every 10 s); JuPedSim
 its default collision-free speed model (Tordeux et al. 2016) at dt = 0.01 s, agents of radius 0.2 m with
 the same desired speed 1.34 m/s, placed at random (`--seed`) in the crowd's area, each heading for the exit
 nearest to it and taken out when it reaches a strip 0.5 m deep inside that exit. Wall time: the set-up and the
@@ -21,6 +26,7 @@ JuPedSim is an optional benchmark dependency: pip install -e '.[peer]' (or pip i
 
     python benchmarks/peer.py                                   # bottleneck, hall with 100 people
     python benchmarks/peer.py --scenes hall --people 100 1000 --repeat 3
+    python benchmarks/peer.py --scenes large-hall --people 10000 --only femcrowd --implicit 4
 """
 
 import argparse
@@ -41,22 +47,24 @@ SPEED, RADIUS, DT = 1.34, 0.2, 0.01
 MAX_TIME = 1000.0
 HALL_PLAN = """size = 0.35
 [outer]
-points = [[0, 0], [40, 0], [40, 30], [0, 30]]
+points = [[0, 0], [{w:.6g}, 0], [{w:.6g}, {h:.6g}], [0, {h:.6g}]]
 [[exits]]
 name = "west"
-from = [0, 14]
-to = [0, 16]
+from = [0, {y0:.6g}]
+to = [0, {y1:.6g}]
 size = 0.1
 [[exits]]
 name = "east"
-from = [40, 14]
-to = [40, 16]
+from = [{w:.6g}, {y0:.6g}]
+to = [{w:.6g}, {y1:.6g}]
 size = 0.1
 """
 HALL_CROWD = (5.0, 35.0, 5.0, 25.0)   # x0, x1, y0, y1 of the crowd in the hall
-HALL_CASE = """title = "A 40 m x 30 m hall, two 2 m exits, {people} people (benchmarks/peer.py)"
+#: the hall's scale factor per scene: the large hall has 10 times its area
+HALLS = {"hall": 1.0, "large-hall": 10 ** 0.5}
+HALL_CASE = """title = "A {w:.4g} m x {h:.4g} m hall, two 2 m exits, {people} people (benchmarks/peer.py)"
 [mesh]
-file = "../hall.msh"
+file = "../{name}.msh"
 [boundary]
 exits = ["west", "east"]
 [model]
@@ -80,22 +88,25 @@ def scene(name: str, people: int) -> tuple:
     if name == "bottleneck":
         directory = bottleneck(1.0, CACHE)
         return directory, directory / "bottleneck.toml", (0.0, 6.0, 0.0, 6.0), 90
-    plan, directory = CACHE / "hall.toml", CACHE / f"hall-{people}"
+    k = HALLS[name]
+    w, h = 40.0 * k, 30.0 * k
+    plan, directory = CACHE / f"{name}.toml", CACHE / f"{name}-{people}"
     if not plan.with_suffix(".msh").exists():
         CACHE.mkdir(parents=True, exist_ok=True)
-        plan.write_text(HALL_PLAN)
+        plan.write_text(HALL_PLAN.format(w=w, h=h, y0=h / 2 - 1, y1=h / 2 + 1))
         build_mesh(plan)
+    x0, x1, y0, y1 = box = tuple(k * c for c in HALL_CROWD)
     if not (directory / "case.toml").exists():
         directory.mkdir()
-        x0, x1, y0, y1 = HALL_CROWD
         (directory / "case.toml").write_text(HALL_CASE.format(
-            people=people, speed=SPEED, density=people / ((x1 - x0) * (y1 - y0)), x0=x0, x1=x1, y0=y0, y1=y1,
-            end=MAX_TIME))
-    return directory, plan, HALL_CROWD, people
+            name=name, w=w, h=h, people=people, speed=SPEED, density=people / ((x1 - x0) * (y1 - y0)), x0=x0,
+            x1=x1, y0=y0, y1=y1, end=MAX_TIME * k))
+    return directory, plan, box, people
 
 
-def run_femcrowd(directory: Path) -> dict:
-    """The macro model with the recommended settings, as `femcrowd run` runs it."""
+def run_femcrowd(directory: Path, implicit: float = 0.0) -> dict:
+    """The macro model with the recommended settings, as `femcrowd run` runs it; implicit > 0: the linearly implicit
+    prediction at that cfl on the median cell's step instead of the recommended STEP."""
     import tempfile
 
     import femcrowd
@@ -105,7 +116,8 @@ def run_femcrowd(directory: Path) -> dict:
 
     tic, cpu = time.perf_counter(), time.process_time()
     exits = femcrowd.load_case(directory)["boundary"]["exits"]
-    case = femcrowd.load_case(directory, {**LAW, **STEP, **door_capacity(exits)})
+    step = STEP if not implicit else {"scheme.transport": "implicit", "time.cfl_quantile": 0.5, "time.cfl": implicit}
+    case = femcrowd.load_case(directory, {**LAW, **step, **door_capacity(exits)})
     with tempfile.TemporaryDirectory() as tmp:
         result = femcrowd.run(case, out=Path(tmp) / "out")
     wall, cpu = time.perf_counter() - tic, time.process_time() - cpu
@@ -161,39 +173,48 @@ def _strip(area, a, b, depth: float = 0.5):
     return shapely.Polygon([a, b, b + depth * normal, a + depth * normal])
 
 
-def worker(tool: str, name: str, people: int, seed: int) -> None:
+def worker(tool: str, name: str, people: int, seed: int, implicit: float) -> None:
     directory, plan, box, people = scene(name, people)
-    figures = run_femcrowd(directory) if tool == "femcrowd" else run_jupedsim(plan, box, people, seed)
+    figures = run_femcrowd(directory, implicit) if tool == "femcrowd" else run_jupedsim(plan, box, people, seed)
     print(json.dumps({k: float(v) for k, v in figures.items()}))
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scenes", nargs="+", default=["bottleneck", "hall"], choices=["bottleneck", "hall"])
+    parser.add_argument("--scenes", nargs="+", default=["bottleneck", "hall"], choices=["bottleneck", *HALLS])
     parser.add_argument("--people", nargs="+", type=int, default=[100], help="people in the hall")
+    parser.add_argument("--only", choices=["femcrowd", "jupedsim"], help="run one of the two programs")
     parser.add_argument("--repeat", type=int, default=1, help="rounds of the two programs")
     parser.add_argument("--seed", type=int, default=1, help="JuPedSim's placement of the agents")
-    parser.add_argument("--worker", nargs=4, help=argparse.SUPPRESS)
+    parser.add_argument("--implicit", type=float, default=0.0, metavar="CFL",
+                        help="femcrowd with the implicit prediction at CFL x the median cell's step, not STEP")
+    parser.add_argument("--worker", nargs=5, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
-        tool, name, people, seed = args.worker
-        return worker(tool, name, int(people), int(seed))
-    if importlib.util.find_spec("jupedsim") is None:
+        tool, name, people, seed, implicit = args.worker
+        return worker(tool, name, int(people), int(seed), float(implicit))
+    tools = [("femcrowd", None, "femcrowd"), ("JuPedSim", None, "jupedsim")]
+    tools = [t for t in tools if args.only in (None, t[2])]
+    if args.only != "femcrowd" and importlib.util.find_spec("jupedsim") is None:
         print("benchmarks/peer.py needs JuPedSim: pip install -e '.[peer]' (or pip install jupedsim)", file=sys.stderr)
         return 2
     env = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
-    runs = [(name, people) for name in args.scenes for people in (args.people if name == "hall" else [90])]
-    print(f"medians of {args.repeat} alternated rounds; femcrowd: macro, recommended settings; JuPedSim "
-          f"{_version()}: collision-free speed model, dt {DT} s, seed {args.seed}")
+    runs = [(name, people) for name in args.scenes for people in (args.people if name in HALLS else [90])]
+    step = f"the implicit prediction at cfl {args.implicit:g} on the median cell" if args.implicit else "STEP"
+    print(f"medians of {args.repeat} alternated rounds; femcrowd: macro, recommended settings ({step}); JuPedSim "
+          f"{_version() if args.only != 'femcrowd' else '(not run)'}: collision-free speed model, dt {DT} s, "
+          f"seed {args.seed}")
     print("| scene | people | femcrowd wall (CPU) | JuPedSim wall (CPU) | femcrowd evacuation | JuPedSim evacuation "
           "| femcrowd flow | JuPedSim flow | femcrowd steps (triangles) |")
     print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     for name, people in runs:
         scene(name, people)   # meshed once, before anything is timed
-        configs = [("femcrowd", None, "femcrowd"), ("JuPedSim", None, "jupedsim")]
-        result = rounds(configs, args.repeat,
-                        lambda code, tool: in_process(__file__, (tool, name, people, args.seed), code, env))
-        f, j = result["femcrowd"], result["JuPedSim"]
+        result = rounds(tools, args.repeat,
+                        lambda code, tool: in_process(__file__, (tool, name, people, args.seed, args.implicit), code,
+                                                          env))
+        missing = [{"wall": np.nan, "cpu": np.nan, "evacuation": np.nan, "flow": np.nan, "steps": np.nan,
+                    "cells": np.nan}]
+        f, j = result.get("femcrowd", missing), result.get("JuPedSim", missing)
         print(f"| {name} | {people} | {median(f, 'wall'):.1f} s ({median(f, 'cpu'):.1f}) | "
               f"{median(j, 'wall'):.1f} s ({median(j, 'cpu'):.1f}) | "
               f"{median(f, 'evacuation'):.1f} s | {median(j, 'evacuation'):.1f} s | {median(f, 'flow'):.2f} /s | "

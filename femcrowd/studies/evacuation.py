@@ -10,7 +10,8 @@ observed order
     p_k = log(|d_{k-1}| / |d_k|) / log(h_{k-1} / h_k),
 
 and, where p_k > 0, Richardson's estimate of the converged time t_k + d_k / ((h_{k-1} / h_k)^p_k - 1)
-(Richardson 1911; the generalised form of Roache 1998, ch. 5).
+(Richardson 1911; the generalised form of Roache 1998, ch. 5). evacuation.csv also gives each level's flow,
+persons per second while 20 to 80 % of the crowd are out (validation.flow).
 """
 
 import csv
@@ -27,6 +28,7 @@ from ..files import replaced, write_text
 from ..timer import Stopwatch
 from .convergence import plan_study
 from .execute import StudyInterrupted, describe, execute
+from .validation import flow
 
 #: the shares of the crowd out whose times are measured; then all but time.empty_fraction, and all but LAST persons
 SHARES = (0.5, 0.9, 0.99)
@@ -71,7 +73,8 @@ def run_level(task) -> dict:
     total = h["mass"][0] + (h["inflow"][-1] if "inflow" in h else 0.0)   # everyone who was ever inside
     return {"cells": simulation.scene.domain.ncells, "h": simulation.scene.domain.h, "steps": len(h["time"]) - 1,
             "wall_seconds": clock.seconds, "cpu_seconds": clock.cpu,
-            "times": evacuation_times(h["time"], h["evacuated"], total, shares(case, total))}
+            "times": evacuation_times(h["time"], h["evacuated"], total, shares(case, total)),
+            "flow": flow(h["time"], h["evacuated"], total)}
 
 
 def observed(values, h) -> tuple[list, list, list]:
@@ -108,8 +111,9 @@ def study(case_dir, levels: int, out=None, overrides=(), cfls=(), set_values=(),
         results, stopped = stop.results, stop
     names = share_names(base)
     rows = [{"series": t.series, "level": t.level, "mesh": t.mesh, "cfl": t.cfl,
-             **({k: r[k] for k in ("cells", "h", "steps", "wall_seconds", "cpu_seconds")} if _finished(r) else
-                {"cells": 0, "h": math.nan, "steps": 0, "wall_seconds": math.nan, "cpu_seconds": math.nan}),
+             **({k: r[k] for k in ("cells", "h", "steps", "wall_seconds", "cpu_seconds", "flow")} if _finished(r) else
+                {"cells": 0, "h": math.nan, "steps": 0, "wall_seconds": math.nan, "cpu_seconds": math.nan,
+                 "flow": math.nan}),
              **{f"t {name}": v for name, v in zip(names, r["times"] if _finished(r) else [math.nan] * len(names))}}
             for t, r in zip(tasks, results)]
     with replaced(out_dir / "evacuation.csv", sync=True) as tmp, open(tmp, "w", newline="") as f:

@@ -55,6 +55,8 @@ def test_the_saturated_evacuation_times_converge_to_the_exact_ones(tmp_path):
     assert np.all(errors[1:, :3] < 0.6 * errors[:-1, :3])       # first order
     assert np.all(errors[-1, :3] < 0.06 * np.array(exact[:3]))
     assert (out / "evacuation.csv").is_file() and "Richardson" in (out / "evacuation.md").read_text()
+    # the flow while 20 to 80 % are out lies between the exact rates -ds/dt = s/2 + 1 at 80 % and 20 % out
+    assert all(1.1 * 0.99 < r["flow"] < 1.4 * 1.01 for r in rows), [r["flow"] for r in rows]
 
 
 def test_a_micro_case_is_refused_in_one_line(tmp_path):

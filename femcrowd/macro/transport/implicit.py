@@ -20,6 +20,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from .flow_order import FlowOrder
 from .lwr import LWRTransport
 from .upwind import Prediction, UpwindTransport
 
@@ -80,10 +81,16 @@ class ImplicitLWRTransport(LWRTransport):
     ImplicitUpwindTransport's with the rates q_e f(rho^n_L) >= 0: an M-matrix, so rho~ >= 0 and the mass is
     conserved at any step; f = 1 gives the backward-Euler upwind scheme. A population i of several takes
     q_e rho~_i,K f(total^n_L). First order in time; the Godunov demand/supply flux is not used, and
-    rho~ <= 1 is not kept even with f(1) = 0: the projection follows every step. One sparse LU per step
-    (the coefficients change with rho^n)."""
+    rho~ <= 1 is not kept even with f(1) = 0: the projection follows every step. The coefficients change
+    with rho^n, the flow directions do not: the system is solved in the block triangular order of the flow
+    (flow_order.py, built once per transport), a substitution where the flow has no cycle."""
 
     max_cfl = ImplicitUpwindTransport.max_cfl
+
+    def __init__(self, domain, exits, normal_velocity, law):
+        super().__init__(domain, exits, normal_velocity, law)
+        self.inner = np.flatnonzero(self.receiver < domain.ncells)   # the flows between two cells
+        self.flow_order = FlowOrder(self.sender[self.inner], self.receiver[self.inner], domain.ncells)
 
     def flows(self, rho, total=None, which=slice(None)):
         """The mass rate of this population along each flow (of `which`): q_e rho_K f(total_L), total the density
@@ -98,12 +105,8 @@ class ImplicitLWRTransport(LWRTransport):
         n = len(rho)
         seen = np.append(rho if total is None else total, 0.0)
         speed = self.law(seen[self.receiver]) * self.rate   # q_e f(rho^n_L) on each flow
-        inner = self.receiver < n
-        rows = np.concatenate([np.arange(n), self.receiver[inner]])
-        cols = np.concatenate([np.arange(n), self.sender[inner]])
-        vals = np.concatenate([self.domain.area / dt + np.bincount(self.sender, speed, n), -speed[inner]])
-        system = sp.csc_matrix((vals, (rows, cols)), shape=(n, n))
-        rho_t = spla.splu(system, permc_spec="COLAMD").solve(rho * self.domain.area / dt)
+        rho_t = self.flow_order.solve(self.domain.area / dt + np.bincount(self.sender, speed, n), -speed[self.inner],
+                                      rho * self.domain.area / dt)
         np.maximum(rho_t, 0.0, out=rho_t)   # the inverse is >= 0: only round-off is clipped
         flux = rho_t[self.sender] * speed
         evacuated = dt * np.bincount(self.exit_of_flow, flux[self.exit_flows], self.n_exits)
