@@ -172,6 +172,10 @@ SCHEMA = {
                              "density of the speed law", low=0, low_open=True),
         "view_angle": Key(45.0, "number", "half angle of view (degrees) of the strategies and the speed law",
                           low=0, high=90, low_open=True),
+        "walls": Key("paper", "choice", 'the direction of the discs at walls: "paper", that of the density model\'s '
+                     'walking distance (a disc can stay at a wall\'s end it turns around); "clearance", the walking '
+                     'distance of disc centres kept a radius from the walls (docs/micro.md, "Walls and corners")',
+                     ("paper", "clearance")),
         "fluctuation": Key(0.0, "number", "the standard deviation (m/s, per component) of a random perturbation of "
                            "each disc's desired velocity, an Ornstein-Uhlenbeck process of correlation time 0.5 s "
                            "seeded from micro.seed, which breaks the arches at narrow doors (2.5 lets pushing discs "

@@ -15,8 +15,9 @@ from types import SimpleNamespace
 import numpy as np
 
 from ..errors import InputError, RunFailed
-from ..macro.velocity import CongestionVelocity
+from ..macro.velocity import CongestionVelocity, ExitsVelocity
 from ..micro import MicroSimulation
+from ..micro.clearance import Clearance
 from ..micro.contacts import WallSet
 from ..micro.density import disc_density
 from ..micro.scheme import Uncovered
@@ -97,7 +98,8 @@ class MicroModel:
             spec = case["micro"]
             self.population = disc_populations(case, domain, rho, q, self.locate)
             self.names = [p.name for p in populations]
-            desired = DesiredVelocity([self._desired(p.velocity) for p in populations],
+            radius = max(float(np.max(spec["radius"])), float(r.max()) if len(r) else 0.0)
+            desired = DesiredVelocity([self._desired(p.velocity, radius) for p in populations],
                                       self.population, [p.law for p in populations], spec["strategy"],
                                       View(spec["view_distance"], spec["view_angle"]))
             self.sim = MicroSimulation(q, r, *self._segments(exits), desired, tau, method=spec["method"],
@@ -129,12 +131,26 @@ class MicroModel:
         self.last = None   # the last step's StepInfo (positions, velocities, pressures of its discs)
         self.timers = Timer()
 
-    def _desired(self, velocity):
+    def _desired(self, velocity, radius):
         """U0(q, t) of a population's desired velocity at the discs: in plan, or on a building the plan U of the
-        cell holding each disc in the chart of its piece."""
+        cell holding each disc in the chart of its piece; with ``micro.walls = "clearance"`` the direction of the
+        walking distance of disc centres of this radius (micro/clearance.py)."""
+        if self.case["micro"]["walls"] == "clearance":
+            velocity = self._cleared(velocity, radius)
         if self.surface is None:
             return lambda xy, t: velocity.at_points(xy, t, self.boundary.at(t))
         return lambda X, t: self.surface.velocity(X, velocity.cells(self.boundary.at(t)))
+
+    def _cleared(self, velocity, radius):
+        """A population's desired velocity for disc centres kept `radius` from the walls: that of the exits (not the
+        route choice, whose cost is the crowd's, nor a given field)."""
+        if type(velocity) is not ExitsVelocity:
+            log.warning("%s: micro.walls = 'clearance' applies to velocity.type = 'exits' without route choice: "
+                        "this population's direction is kept", self.case.file)
+            return velocity
+        centroids = self.domain.centroid if self.surface is None else \
+            self.surface.points[self.surface.triangles].mean(axis=1)
+        return Clearance(velocity, centroids, lambda doors: self._segments(doors)[0], radius)
 
     def _segments(self, doors):
         """The walls and exits of the discs for these doors (on a building in the layout, with the walls seen

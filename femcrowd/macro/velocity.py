@@ -32,6 +32,7 @@ With ``[velocity] route = "congestion"`` the distance becomes Hughes' potential 
 :class:`CongestionVelocity`, re-solved every ``route_every`` seconds and at every door change.
 """
 
+import copy
 import json
 
 import numpy as np
@@ -89,6 +90,13 @@ class ExitsVelocity:
 
     def version(self, state, exits):
         return None
+
+    def costed(self, cost):
+        """This desired velocity with a cost per cell in the eikonal (|grad d| = cost), its fields computed anew
+        (the mesh's stencils shared): the discs' clearance of the walls, micro/clearance.py."""
+        other = copy.copy(self)
+        other.cost, other._cells, other.distance = cost, {}, {}
+        return other
 
     def cells(self, exits) -> np.ndarray:
         """U per cell for these open exits (the distance field is computed on first use)."""
