@@ -6,7 +6,7 @@ series gives the converged times t50, t90, t99 and t_all by Richardson's estimat
 level of every series is then printed with its steps, CPU seconds, each time and its error (%), and the
 fastest point (CPU seconds) whose four errors are all within 1 %. Scenes: cases/room; the 1 m bottleneck of
 docs/validation.md and the 40 x 30 m hall of benchmarks/peer.py (made there, under benchmarks/.cache/peer), the
-paper's model (constant speed) and, for the bottleneck, the recommended settings (explicit LWR fluxes, and
+paper's model (constant speed) and, for the bottleneck, the variant weidmann-push (explicit LWR fluxes, and
 the linearly implicit ones at the median cell's step).
 
     python benchmarks/frontier.py --scenes room
@@ -21,11 +21,11 @@ from pathlib import Path
 import peer  # this script's folder is on sys.path: the scenes of the peer benchmark
 
 from femcrowd.studies.evacuation import observed, study
-from femcrowd.studies.recommended import SPEED, WALLS
+from femcrowd.studies.recommended import PUSHING, WALLS
 
 IMPLICIT = ["scheme.transport=implicit"]
 RULE = [*IMPLICIT, "time.cfl_quantile=0.5"]
-RECOMMENDED = [f"{k}={v}" for k, v in {**SPEED, **WALLS}.items()] + ["boundary.capacity={exit = 1.9}"]
+RECOMMENDED = [f"{k}={v}" for k, v in {**PUSHING, **WALLS}.items()] + ["boundary.capacity={exit = 1.9}"]
 #: per scene: its case directory (a function: the peer scenes are made on demand) and its series
 #: (label, overrides, cfl values); the first series is the reference
 SCENES = {

@@ -6,8 +6,9 @@ Scenes (each a TOML floor plan, benchmarks/.cache/peer; JuPedSim reads the same 
 - hall: a 40 m x 30 m hall with two 2 m exits, in the middle of its short walls, and `--people` people spread
   evenly over its middle 30 m x 20 m.
 
-femcrowd runs the macro model with the recommended settings of docs/validation.md (Weidmann's law, push 0.2,
-time.cfl 1, door capacity 1.9 /(m s) on every exit), as `femcrowd run` does (history.csv, a frame every 10 s); JuPedSim
+femcrowd runs the macro model with the recommended settings of docs/validation.md (Predtechenskii and
+Milinskii's law at the scene's 1.34 m/s, slip walls, time.cfl 1, the capacity of its width on every exit), as
+`femcrowd run` does (history.csv, a frame every 10 s); JuPedSim
 its default collision-free speed model (Tordeux et al. 2016) at dt = 0.01 s, agents of radius 0.2 m with
 the same desired speed 1.34 m/s, placed at random (`--seed`) in the crowd's area, each heading for the exit
 nearest to it and taken out when it reaches a strip 0.5 m deep inside that exit. Wall time: the set-up and the
@@ -99,13 +100,12 @@ def run_femcrowd(directory: Path) -> dict:
     import tempfile
 
     import femcrowd
-    from femcrowd.studies.recommended import SPEED as LAW
-    from femcrowd.studies.recommended import STEP, door_capacity
+    from femcrowd.studies.recommended import MACRO, door_capacity
     from femcrowd.studies.validation import flow
 
     tic, cpu = time.perf_counter(), time.process_time()
     exits = femcrowd.load_case(directory)["boundary"]["exits"]
-    case = femcrowd.load_case(directory, {**LAW, **STEP, **door_capacity(exits)})
+    case = femcrowd.load_case(directory, {**MACRO, **door_capacity(exits)})
     with tempfile.TemporaryDirectory() as tmp:
         result = femcrowd.run(case, out=Path(tmp) / "out")
     wall, cpu = time.perf_counter() - tic, time.process_time() - cpu

@@ -25,7 +25,7 @@ from ..case import load_case
 from ..driver import Simulation
 from ..timer import Stopwatch
 from .execute import Progress
-from .recommended import DISCS, DOOR_CAPACITY, FLUCTUATION, MACRO, PUSH, SPEED, door_capacity
+from .recommended import DISCS, FLUCTUATION, MACRO, PUSH, PUSH_CAPACITY, PUSHING, WEIDMANN_PUSH, door_capacity
 
 #: the cases (shipped with femcrowd)
 CASES = shipped.cases("rimea")
@@ -36,38 +36,39 @@ ROUTES = {"velocity.route": "congestion"}
 
 @dataclass(frozen=True)
 class Variant:
-    """A column of the table: a model and its settings, as case overrides. ``doors``: whether every door of the
-    test (its exits and its interior doors) gets the capacity DOOR_CAPACITY."""
+    """A column of the table: a model and its settings, as case overrides. ``capacity``: the capacity every door
+    of the test (its exits and its interior doors) gets (persons/(m s), or "auto": that of its width), or None."""
 
     label: str
     overrides: dict
-    doors: bool = False
+    capacity: float | str | None = None
 
     @property
     def micro(self) -> bool:
         return self.overrides.get("model.type") == "micro"
 
 
+DISC_LABEL = f"discs, Weidmann, push {PUSH:g}, decelerating, fluctuation {FLUCTUATION:g} m/s"
 VARIANTS = {
     "macro": Variant("macro (the paper's)", {}),
-    "macro-capacity": Variant(f"macro, doors {DOOR_CAPACITY:g} /(m s)", {}, doors=True),
-    "macro-pushing": Variant(f"macro, Weidmann, push {PUSH:g}", SPEED),
-    "macro-recommended": Variant(f"macro, Weidmann, push {PUSH:g}, doors {DOOR_CAPACITY:g} /(m s) (recommended)",
-                                 MACRO, doors=True),
+    "macro-capacity": Variant(f"macro, doors {PUSH_CAPACITY:g} /(m s)", {}, PUSH_CAPACITY),
+    "macro-pushing": Variant(f"macro, Weidmann, push {PUSH:g}", PUSHING),
+    "macro-recommended": Variant("macro, Predtechenskii-Milinskii, doors of their width (recommended)", MACRO, "auto"),
+    "macro-weidmann-push": Variant(f"macro, Weidmann, push {PUSH:g}, doors {PUSH_CAPACITY:g} /(m s) (weidmann-push)",
+                                   WEIDMANN_PUSH, PUSH_CAPACITY),
     "micro": Variant("discs (the paper's)", {"model.type": "micro"}),
-    "micro-recommended": Variant(f"discs, Weidmann, push {PUSH:g}, decelerating, fluctuation {FLUCTUATION:g} m/s "
-                                 "(recommended)", {"model.type": "micro", **DISCS}),
-    "macro-routes": Variant(f"macro, Weidmann, push {PUSH:g}, doors {DOOR_CAPACITY:g} /(m s), route choice "
-                            "(recommended + congestion)", {**MACRO, **ROUTES}, doors=True),
-    "micro-routes": Variant(f"discs, Weidmann, push {PUSH:g}, decelerating, fluctuation {FLUCTUATION:g} m/s, route "
-                            "choice (recommended + congestion)", {"model.type": "micro", **DISCS, **ROUTES}),
+    "micro-recommended": Variant(f"{DISC_LABEL} (recommended)", {"model.type": "micro", **DISCS}),
+    "macro-routes": Variant("macro, Predtechenskii-Milinskii, doors of their width, route choice (recommended + "
+                            "congestion)", {**MACRO, **ROUTES}, "auto"),
+    "micro-routes": Variant(f"{DISC_LABEL}, route choice (recommended + congestion)",
+                            {"model.type": "micro", **DISCS, **ROUTES}),
 }
 MODELS = tuple(VARIANTS)
 #: the variants every test runs with (unless it names its own): all but the route choice, which only the tests of
 #: route choice (10, 11) run
-PLAIN = MODELS[:6]
+PLAIN = MODELS[:7]
 #: the density model's columns of PLAIN: the tests the discs cannot run (4: a density; 2, 3: stairs, docs/floors.md)
-MACRO = PLAIN[:4]
+MACRO = PLAIN[:5]
 
 
 @dataclass
@@ -355,8 +356,9 @@ def run_test(test: RimeaTest, variant: str, cases=CASES, out=None, seed=None, pr
     for k, entry in enumerate(test.cases):
         name, own = (entry, {}) if isinstance(entry, str) else entry
         overrides = {**chosen.overrides, **own, **((test.micro or {}) if chosen.micro else {}), **seeded}
-        if chosen.doors:
-            overrides.update(door_capacity([*load_case(Path(cases) / name)["boundary"]["exits"], *test.doors]))
+        if chosen.capacity is not None:
+            overrides.update(door_capacity([*load_case(Path(cases) / name)["boundary"]["exits"], *test.doors],
+                                           chosen.capacity))
         case = load_case(Path(cases) / name, overrides)
         suffix = ("" if isinstance(entry, str) else f"-{k}") + (f"-seed{seed}" if seeded else "")
         target = Path(out) / f"{name}-{variant}{suffix}" if out is not None else None
