@@ -4,10 +4,12 @@ RiMEA e.V., "Guideline for Microscopic Evacuation Analysis", version 3.0 (2016) 
 a scene and the result a model must show. The cases are ``cases/rimea/<test>`` (geometries as in
 JuPedSim's RiMEA tests, Juelich Supercomputing Centre); each runs with every variant of the models
 (:data:`VARIANTS`): the paper's density model and its discs (radius 0.23 m: pi r^2 / hexagonal packing =
-1 / 5.4 m^2, so that a disc is one person at the saturation density rho_max = 5.4 persons/m^2), and the
-settings docs/validation.md recommends for realistic door flows (door capacities, a speed law that pushes,
-arch-breaking discs), and in the tests of route choice (10, 11) the recommended settings with the route choice
-that sees the crowd (``velocity.route = "congestion"``, femcrowd/macro/velocity.py CongestionVelocity). Each test
+1 / 5.4 m^2, so that a disc is one person at the saturation density rho_max = 5.4 persons/m^2), the settings
+docs/validation.md recommends for realistic door flows (Predtechenskii and Milinskii's law at the test's own speed
+with the capacity of each door's width; arch-breaking discs), the settings recommended before (the variant
+weidmann-push: Weidmann's law that pushes, a capacity of 1.9), and in the tests of route choice (10, 11) the
+recommended settings with the route choice that sees the crowd (``velocity.route = "congestion"``,
+femcrowd/macro/velocity.py CongestionVelocity). Each test
 judges what a user reads from the run: history, summary, measurements.csv. The disc runs depend on the
 sampling of the discs and their fluctuation (``micro.seed``), and which arch holds at a door even on round-off:
 with ``seeds`` they run once per seed and each figure is given over the seeds (:class:`Spread`).
