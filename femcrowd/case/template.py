@@ -17,7 +17,7 @@ import numpy as np
 from ..errors import InputError
 from ..files import make_directory, write_text
 from ..mesh.capacity import width_capacity
-from ..studies.recommended import DOOR_CAPACITY, FLUCTUATION, FREE_SPEED, LAW, STEP, WALLS
+from ..studies.recommended import DOOR_CAPACITY, FLUCTUATION, FREE_SPEED, LAW, PUSH, STEP, WALLS, WEIDMANN_SPEED
 from .loading import toml_value
 from .schema import SCHEMA
 
@@ -162,7 +162,9 @@ def _recommended(lines: list, domain) -> list:
                     (f"# people = {DENSITY * area:.0f}", "or a number of persons: the density is then their shape")],
         "flow": [("flow = 0.5", "persons per metre per second (or rate, persons/s; or people)")],
         "# seed": [lines[_index(lines, "# seed")], ('# strategy = "decelerate"', "the recommended discs "
-                                                     "(docs/validation.md)"), f"# fluctuation = {FLUCTUATION}"],
+                                                     "(docs/validation.md), with [velocity] speed = "
+                                                     f'{WEIDMANN_SPEED}, speed_law = "weidmann", push = {PUSH}'),
+                   f"# fluctuation = {FLUCTUATION}"],
     }
     if exits or inside:
         changed["# capacity"] = [(f"capacity = {toml_value({name: DOOR_CAPACITY for name in exits + inside})}",
