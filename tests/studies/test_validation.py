@@ -121,9 +121,9 @@ def test_the_diagram_of_predtechenskii_s_law_is_the_published_one(tmp_path):
 
 @pytest.mark.slow
 def test_predtechenskii_s_law_with_auto_capacities_passes_the_capacity_of_the_width_on_two_meshes(small):
-    """The setting "recommended" (Predtechenskii and Milinskii's law) at the small 0.6 m bottleneck: the law carries more than the door's capacity
-    of its width (2.08 persons/(m s) at 0.6 m), so the door decides: everyone out, 2.08 within 3 % on two meshes,
-    which agree to 1 %."""
+    """The setting "recommended" (Predtechenskii and Milinskii's law) at the small 0.6 m bottleneck: the law carries
+    more than the door's capacity of its width (2.08 persons/(m s) at 0.6 m), so the door decides: everyone out,
+    2.08 within 3 % on two meshes, which agree to 1 %."""
     overrides = validation.SETTINGS["recommended"].overrides
     (coarse, out_coarse), (fine, out_fine) = (specific_flow(small, *overrides, f"mesh.refine={level}")
                                               for level in (0, 1))
