@@ -8,7 +8,9 @@ fastest point (CPU seconds) whose four errors and door flow error (persons/s whi
 within 1 %. Without three finished levels of the reference (``--levels 2``, a non-monotone series) the reference's
 finest level stands for the converged value (said so). Scenes: cases/room; the 1 m bottleneck of docs/validation.md
 and the 40 x 30 m hall of benchmarks/peer.py with 100 and 1 000 people (made there, under benchmarks/.cache/peer),
-the paper's model (constant speed) and, for the bottleneck and the hall, the recommended settings: the explicit
+the paper's model (constant speed) and, for the bottleneck and the hall, the variant weidmann-push of
+femcrowd/studies/recommended.py (Weidmann's law, push 0.2, slip walls, 1.9 on every door; the recommended settings
+when this frontier was measured, the scenes' names keep that word): the explicit
 LWR fluxes at cfl 1 (the reference), the linearly implicit ones at cfl 1, 2, 4, 8 on the median cell's step and
 at cfl 4, 8 on the smallest cell's (cfl 1 and 2 there take at least half the explicit steps, each dearer).
 
@@ -26,13 +28,13 @@ import peer  # this script's folder is on sys.path: the scenes of the peer bench
 
 from femcrowd import load_case
 from femcrowd.studies.evacuation import observed, run_level, share_names, study
-from femcrowd.studies.recommended import DOOR_CAPACITY, SPEED, WALLS
+from femcrowd.studies.recommended import PUSH_CAPACITY, PUSHING, WALLS
 
 IMPLICIT = ["scheme.transport=implicit"]
 RULE = [*IMPLICIT, "time.cfl_quantile=0.5"]
-LAW = [f"{k}={v}" for k, v in {**SPEED, **WALLS}.items()]
-RECOMMENDED = LAW + [f"boundary.capacity={{exit = {DOOR_CAPACITY}}}"]
-HALL = LAW + [f"boundary.capacity={{west = {DOOR_CAPACITY}, east = {DOOR_CAPACITY}}}"]
+LAW = [f"{k}={v}" for k, v in {**PUSHING, **WALLS}.items()]
+RECOMMENDED = LAW + [f"boundary.capacity={{exit = {PUSH_CAPACITY}}}"]
+HALL = LAW + [f"boundary.capacity={{west = {PUSH_CAPACITY}, east = {PUSH_CAPACITY}}}"]
 
 
 def steps(law):

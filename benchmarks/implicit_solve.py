@@ -4,11 +4,11 @@ the implicit prediction").
 
 Scenes: the 1 m bottleneck of docs/validation.md on the plan's mesh and two refinements down (about 2 000 and
 32 000 triangles) and the 40 x 30 m hall of benchmarks/peer.py with 1 000 people (23 000 triangles), with the
-recommended settings (Weidmann's law, push 0.2, slip walls, door capacity 1.9 /(m s)) and the implicit
-prediction at `--cfl` times the median cell's step. Each run (a fresh process; with ``--baseline DIR``, e.g.
-``git worktree add /tmp/base 96a1f94``, the same run on that checkout, in alternated rounds) takes 20 steps to
-bring the crowd to the doors, then times `--steps` steps: the process's CPU seconds per step of the transport
-phase (the prediction) and of the whole step.
+variant weidmann-push of the recommended settings (Weidmann's law, push 0.2, slip walls, door capacity 1.9 /(m s))
+and the implicit prediction at `--cfl` times the median cell's step. Each run (a fresh process; with
+``--baseline DIR``, e.g. ``git worktree add /tmp/base 96a1f94``, the same run on that checkout, in alternated
+rounds) takes 20 steps to bring the crowd to the doors, then times `--steps` steps: the process's CPU seconds per
+step of the transport phase (the prediction) and of the whole step.
 
     python benchmarks/implicit_solve.py --steps 10 --repeat 1
     python benchmarks/implicit_solve.py --baseline /tmp/base
@@ -22,7 +22,9 @@ import time
 import peer  # this script's folder is on sys.path: the scenes of the peer benchmark
 from alternating import arguments, in_process, median, rounds
 
-from femcrowd.studies.recommended import SPEED, WALLS, door_capacity
+#: the variant weidmann-push, written out (not imported: the --baseline checkout may name its settings otherwise)
+SETTINGS = {"velocity.speed_law": "weidmann", "velocity.push": 0.2, "velocity.walls": "slip"}
+CAPACITY = 1.9
 
 #: (label, scene, people, mesh.refine)
 SCENES = [("bottleneck", "bottleneck", 90, 0), ("bottleneck", "bottleneck", 90, 2), ("hall", "hall", 1000, 0)]
@@ -35,7 +37,8 @@ def worker(index, cfl, steps):
     _, name, people, refine = SCENES[int(index)]
     directory = peer.scene(name, int(people))[0]
     exits = femcrowd.load_case(directory)["boundary"]["exits"]
-    case = femcrowd.load_case(directory, {**SPEED, **WALLS, **door_capacity(exits), "scheme.transport": "implicit",
+    case = femcrowd.load_case(directory, {**SETTINGS, "boundary.capacity": {door: CAPACITY for door in exits},
+                                          "scheme.transport": "implicit",
                                           "time.cfl_quantile": 0.5, "time.cfl": float(cfl), "mesh.refine": refine})
     model = femcrowd.Simulation(case).model
     for _ in range(20):

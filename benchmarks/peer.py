@@ -10,9 +10,10 @@ Scenes (each a TOML floor plan, benchmarks/.cache/peer; JuPedSim reads the same 
   triangles, some 1 300 s to empty through the two exits at 1.9 /(m s)). `--only femcrowd` runs one program
   (JuPedSim needs more than 10 minutes for 10 000 agents).
 
-femcrowd runs the macro model with the recommended settings of docs/validation.md (Weidmann's law, push 0.2,
-time.cfl 1, door capacity 1.9 /(m s) on every exit; `--implicit CFL`: the linearly implicit prediction at CFL times
-the median cell's step instead), as `femcrowd run` does (history.csv, a frame every 10 s); JuPedSim
+femcrowd runs the macro model with the recommended settings of docs/validation.md (Predtechenskii and
+Milinskii's law at the scene's 1.34 m/s, slip walls, time.cfl 1, the capacity of its width on every exit; `--implicit
+CFL`: the linearly implicit prediction at CFL times the median cell's step instead), as `femcrowd run` does
+(history.csv, a frame every 10 s); JuPedSim
 its default collision-free speed model (Tordeux et al. 2016) at dt = 0.01 s, agents of radius 0.2 m with
 the same desired speed 1.34 m/s, placed at random (`--seed`) in the crowd's area, each heading for the exit
 nearest to it and taken out when it reaches a strip 0.5 m deep inside that exit. Wall time: the set-up and the
@@ -110,14 +111,13 @@ def run_femcrowd(directory: Path, implicit: float = 0.0) -> dict:
     import tempfile
 
     import femcrowd
-    from femcrowd.studies.recommended import SPEED as LAW
-    from femcrowd.studies.recommended import STEP, door_capacity
+    from femcrowd.studies.recommended import MACRO, door_capacity
     from femcrowd.studies.validation import flow
 
     tic, cpu = time.perf_counter(), time.process_time()
     exits = femcrowd.load_case(directory)["boundary"]["exits"]
-    step = STEP if not implicit else {"scheme.transport": "implicit", "time.cfl_quantile": 0.5, "time.cfl": implicit}
-    case = femcrowd.load_case(directory, {**LAW, **step, **door_capacity(exits)})
+    step = {} if not implicit else {"scheme.transport": "implicit", "time.cfl_quantile": 0.5, "time.cfl": implicit}
+    case = femcrowd.load_case(directory, {**MACRO, **step, **door_capacity(exits)})
     with tempfile.TemporaryDirectory() as tmp:
         result = femcrowd.run(case, out=Path(tmp) / "out")
     wall, cpu = time.perf_counter() - tic, time.process_time() - cpu

@@ -1,5 +1,5 @@
 """Cost per step of a small scene, by phase: the 1 m bottleneck of docs/validation.md (1 978 triangles, 90
-people) with the recommended settings (Weidmann's law, push 0.2, door capacity 1.9 /(m s)), run as
+people) with the variant "weidmann-push" (Weidmann's law, push 0.2, door capacity 1.9 /(m s)), run as
 `femcrowd run` runs it (history.csv, frames every 10 s, summary), alternated with the same run on a baseline
 checkout over `--repeat` rounds, each run in a fresh process (OPENBLAS with one thread).
 
@@ -27,13 +27,14 @@ PHASES = ("transport", "projection", "recording", "output")
 
 
 def worker(end: float) -> None:
-    """One run of the recommended 1 m bottleneck to `end` (or until empty); prints its figures (JSON)."""
+    """One run of the 1 m bottleneck (weidmann-push) to `end` (or until empty); prints its figures (JSON)."""
     import femcrowd
-    from femcrowd.studies.recommended import SPEED, door_capacity
+    from femcrowd.studies.recommended import PUSH_CAPACITY, PUSHING, door_capacity
     from femcrowd.studies.validation import scene
 
     with tempfile.TemporaryDirectory() as tmp:
-        case = femcrowd.load_case(scene(1.0, Path(tmp)), {**SPEED, **door_capacity(["exit"]), "time.end": end})
+        case = femcrowd.load_case(scene(1.0, Path(tmp)),
+                                  {**PUSHING, **door_capacity(["exit"], PUSH_CAPACITY), "time.end": end})
         simulation = femcrowd.Simulation(case)
         cpu, wall = time.process_time(), time.perf_counter()
         result = simulation.run(Path(tmp) / "out")
@@ -58,7 +59,7 @@ def main():
     runs = rounds(configs, args.repeat, lambda code, _: in_process(__file__, (args.end,), code, env))
     load = os.getloadavg()[1]
     first = runs[configs[0][0]][0]
-    print(f"1 m bottleneck, recommended settings: {first['cells']} triangles, {first['steps']} steps; medians of "
+    print(f"1 m bottleneck, weidmann-push: {first['cells']} triangles, {first['steps']} steps; medians of "
           f"{args.repeat} alternated runs, load average {load:.1f} (5 min) at the end")
     print("| phase, ms per step | " + " | ".join(name for name, _, _ in configs) + " |")
     print("|---|" + "---:|" * len(configs))

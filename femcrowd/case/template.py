@@ -4,9 +4,9 @@ beside them; exits = the mesh's boundary groups not named wall* nor entrance*; a
 U = 0 to edit (not a direction made up for it). Every other key is in the case-format documentation.
 
 Two models (MODELS): "recommended", the settings of docs/validation.md (femcrowd/studies/recommended.py:
-rho_max 5.4 persons/m^2, Weidmann's law at 1.34 m/s with its push, the walls' slip, the door capacity on every exit and
-interior line group, by name); "paper", the model of Maury et al. (2010) at the SCHEMA's defaults (rho_max 1,
-constant speed, free exits), the capacities offered as a comment."""
+rho_max 5.4 persons/m^2, Predtechenskii and Milinskii's law at its free speed 1.67 m/s, the walls' slip, the
+capacity of its width on every exit and interior line group, by name); "paper", the model of Maury et al. (2010)
+at the SCHEMA's defaults (rho_max 1, constant speed, free exits), the capacities offered as a comment."""
 
 import math
 import os
@@ -16,14 +16,15 @@ import numpy as np
 
 from ..errors import InputError
 from ..files import make_directory, write_text
-from ..studies.recommended import DOOR_CAPACITY, FLUCTUATION, PUSH, STEP, WALLS
+from ..mesh.capacity import width_capacity
+from ..studies.recommended import DOOR_CAPACITY, FLUCTUATION, FREE_SPEED, LAW, PUSH, STEP, WALLS, WEIDMANN_SPEED
 from .loading import toml_value
 from .schema import SCHEMA
 
 #: the models `femcrowd new --model` writes: the recommended settings (the default) or the paper's model
 MODELS = ("recommended", "paper")
-#: the recommended free walking speed (m/s, Weidmann 1993) and the initial density written (persons/m^2)
-SPEED, DENSITY = 1.34, 2.0
+#: the initial density written (persons/m^2)
+DENSITY = 2.0
 
 
 def _default(section, key):
@@ -144,12 +145,13 @@ def _recommended(lines: list, domain) -> list:
     line that changes is found by its key, and replaced by the lines of CHANGED."""
     exits, _, inside = door_groups(domain)
     area = domain.area.sum()
-    width = sum(domain.length[domain.groups[name]].sum() for name in exits)
+    widths = [domain.length[domain.groups[name]].sum() for name in exits]
     changed = {
-        "rho_max": [("rho_max = 5.4", "persons/m^2 (Weidmann 1993); the paper's model: rho_max = 1.0")],
-        "speed": [(f"speed = {SPEED}", "m/s, Weidmann's free speed: number or expression in x, y"),
-                  ('speed_law = "weidmann"', "slower in a dense crowd (Weidmann 1993)"),
-                  (f"push = {PUSH}", "a jam still pushes at push x speed (docs/validation.md)"),
+        "rho_max": [("rho_max = 5.4", "persons/m^2; the paper's model: rho_max = 1.0")],
+        "speed": [(f"speed = {toml_value(FREE_SPEED)}", "m/s: the law's free speed, 100 m/min; number or expression "
+                   "in x, y"),
+                  (f"speed_law = {toml_value(LAW['velocity.speed_law'])}", "slower in a dense crowd (Predtechenskii, "
+                   'Milinskii 1978); the paper\'s: "constant"'),
                   (f"walls = {toml_value(WALLS['velocity.walls'])}", "no desired direction into a wall (docs/model.md, "
                    '"Walls"); the paper\'s: "paper"')],
         "# speed_law": [], "# push": [],
@@ -160,14 +162,18 @@ def _recommended(lines: list, domain) -> list:
                     (f"# people = {DENSITY * area:.0f}", "or a number of persons: the density is then their shape")],
         "flow": [("flow = 0.5", "persons per metre per second (or rate, persons/s; or people)")],
         "# seed": [lines[_index(lines, "# seed")], ('# strategy = "decelerate"', "the recommended discs "
-                                                     "(docs/validation.md)"), f"# fluctuation = {FLUCTUATION}"],
+                                                     "(docs/validation.md), with [velocity] speed = "
+                                                     f'{WEIDMANN_SPEED}, speed_law = "weidmann", push = {PUSH}'),
+                   f"# fluctuation = {FLUCTUATION}"],
     }
     if exits or inside:
         changed["# capacity"] = [(f"capacity = {toml_value({name: DOOR_CAPACITY for name in exits + inside})}",
-                                  "persons/(m s) each door (exit or interior line) lets through at most")]
-    if width:   # the run ends after the walk and the drain of the crowd through the exits at their capacity
+                                  "persons/(m s) each door lets through at most: that of its width (2.08 up to "
+                                  "1.2 m, 2.57 from 2.4 m), or a number")]
+    if widths:   # the run ends after the walk and the drain of the crowd through the exits at their capacity
         walk = lines[_index(lines, "end")]
-        end = 10.0 * math.ceil((float(walk[0].split("=")[1]) + DENSITY * area / (DOOR_CAPACITY * width)) / 10.0)
+        passed = sum(width_capacity(w) * w for w in widths)
+        end = 10.0 * math.ceil((float(walk[0].split("=")[1]) + DENSITY * area / passed) / 10.0)
         changed["end"] = [(f"end = {end:g}.0", f"{walk[1]}; the crowd through the exits at their capacity")]
     out = [lines[0], "# The recommended settings of docs/validation.md (the paper's model: --model paper)."]
     for line in lines[1:]:

@@ -180,12 +180,13 @@ def stress(out, only, cases, force, checks, quiet):
                    "directory.")
 @click.option("--only", multiple=True, metavar="TEST", help="Run only this RiMEA test, by number (repeatable).")
 @click.option("--model", "models", multiple=True,
-              type=click.Choice(["macro", "macro-capacity", "macro-pushing", "macro-recommended", "micro",
-                                 "micro-recommended", "macro-routes", "micro-routes"]),
+              type=click.Choice(["macro", "macro-capacity", "macro-pushing", "macro-recommended",
+                                 "macro-weidmann-push", "micro", "micro-recommended", "macro-routes", "micro-routes"]),
               help="Run only this model and setting (repeatable; default: all). macro, micro: the paper's; "
                    "-capacity: a capacity of 1.9 persons/(m s) on every door; -pushing: Weidmann's law with "
-                   "push 0.2; -recommended: the settings of docs/validation.md; -routes: the recommended ones with "
-                   "the route choice velocity.route = \"congestion\" (tests 10, 11 and 14 only).")
+                   "push 0.2; -recommended: the settings of docs/validation.md; -weidmann-push: the recommended "
+                   "settings before, Weidmann's law, push 0.2 and 1.9 on every door; -routes: the recommended ones "
+                   "with the route choice velocity.route = \"congestion\" (tests 10, 11 and 14 only).")
 @click.option("--seeds", type=click.IntRange(min=1), default=None, metavar="N",
               help="Run each disc variant N times, with micro.seed = 1 to N (OUT/<case>-<model>-seed<k>), and give "
                    "each of its figures as the median (min-max) over the seeds, its verdict as pass k/N, fail k/N (the "
@@ -238,7 +239,7 @@ def rimea(out, only, models, seeds, quiet):
                    "or corridor-output for --scene corridor): validation.csv, validation.md and validation.png, or "
                    "corridor.csv and corridor.md.")
 @click.option("--settings", default=None, metavar="S1,S2,...",
-              help="Settings to run (default: all): paper, weidmann, pushing, capacity, recommended, predtechenskii, "
+              help="Settings to run (default: all): paper, weidmann, pushing, capacity, weidmann-push, recommended, "
                    "discs-paper, discs.")
 @click.option("--widths", callback=_floats("--widths"), metavar="W1,W2,...",
               help="Bottleneck widths in m (default: 0.5,0.8,1,1.2,1.6,2,2.4,3,3.6,4.4,5), or the corridor's exit "
@@ -287,7 +288,7 @@ def validate(scene, out, settings, widths, inflow, levels, seeds, diagram, overr
       femcrowd validate --settings pushing,capacity --widths 1.0 --levels 2 --out /tmp/validation
       femcrowd validate --settings discs-paper --widths 0.5 --set micro.fluctuation=2.5 --out /tmp/discs
       femcrowd validate --scene corridor --settings recommended --widths 0.7 --levels 1 --serial
-      femcrowd validate --diagram --settings predtechenskii --out /tmp/diagram
+      femcrowd validate --diagram --settings recommended --out /tmp/diagram
       femcrowd validate
     """
     from ..studies import validation as va

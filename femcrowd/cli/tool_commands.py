@@ -159,9 +159,9 @@ def mesh(geometry, out, exit_size, size, units, wall_thickness, walls_layer, obs
 @click.argument("case_dir", type=click.Path())
 @click.option("--mesh", "mesh_file", required=True, type=click.Path(), help="The gmsh .msh file of the scene.")
 @click.option("--model", type=click.Choice(["recommended", "paper"]), default="recommended", show_default=True,
-              help="recommended: the settings of docs/validation.md (rho_max 5.4 persons/m^2, Weidmann's law, "
-                   "push 0.2, capacity 1.9 persons/(m s) on every door); paper: the model of Maury et al. (rho_max "
-                   "1, constant speed, free exits).")
+              help="recommended: the settings of docs/validation.md (rho_max 5.4 persons/m^2, Predtechenskii and "
+                   "Milinskii's law at 1.67 m/s, the capacity of its width on every door); paper: the model of Maury "
+                   "et al. (rho_max 1, constant speed, free exits).")
 def new(case_dir, mesh_file, model):
     """Write a commented CASE_DIR/case.toml for the mesh FILE.msh.
 

@@ -1,12 +1,16 @@
 """The settings docs/validation.md recommends for realistic flows through doors, and where their values come from.
 
-- DOOR_CAPACITY (persons per metre per second, ``[boundary.capacity]`` on every door): the specific flow of
-  the bottleneck experiments at 1 to 1.2 m (Seyfried et al. 2009: 1.90 at 1.0 m, 1.97 at 1.2 m; Kretz et
-  al. 2006: 1.76 to 1.85 at 0.7 to 1.2 m; femcrowd/studies/experiments.csv).
-- PUSH (``[velocity] push``) with Weidmann's law (``speed_law = "weidmann"``, Weidmann 1993): the least
-  factor of the speed law, so that a jam still pushes toward the exits; 0.2 passes 1.9 persons/(m s)
-  through the 1 m bottleneck of ``femcrowd validate`` (converged on three meshes): calibrated there,
-  validated at the other widths.
+- LAW (``[velocity] speed_law``): Predtechenskii and Milinskii's speed on horizontal paths (1978, as tabled in
+  GOST 12.1.004-91; macro/speed_law.py): a published diagram that carries 2.75 persons/(m s) at 5 persons/m^2
+  and still moves a saturated crowd (f(rho_max) = 0.303), so a jam drains with no push. Not fitted.
+- FREE_SPEED (``[velocity] speed``, m/s): the speed of that table up to D = 0.05 (100 m/min, 1.67 m/s), so that
+  the law is the published table and not the table scaled (at Weidmann's 1.34 m/s every speed and flow of the
+  table is 0.80 times the published one). What ``femcrowd new`` writes and femcrowd validate runs; a case's own
+  ``velocity.speed`` stays (RiMEA test 1 prescribes 1.33 m/s), so MACRO does not set it (docs/model.md, "The
+  free speed of the recommended law").
+- DOOR_CAPACITY (``[boundary.capacity]`` on every door): "auto", the capacity of the door's width
+  (mesh/capacity.py: the mean specific flow of the bottleneck experiments, 2.08 persons/(m s) up to 1.2 m, 2.57
+  from 2.4 m, linear between; femcrowd/studies/experiments.csv): calibrated there, validated at every width.
 - WALLS (``[velocity] walls``, macro only): "slip", no desired direction into a wall and a path of upwind flows
   to an exit from every cell (docs/model.md, "Walls"); with the paper's direction a saturated cell in front of a
   column or at a door post may keep its people for ever (issue 34). The discs keep the paper's direction: their
@@ -16,7 +20,11 @@
   out change by at most 0.03 % from cfl 0.5 on each of two meshes, a fortieth of the change between the meshes,
   in half the steps (docs/performance.md, "The evacuation time against run time"). The implicit transport takes
   a speed law (linearly implicit, docs/model.md "Steps by accuracy") but is not recommended: see performance.md.
-- The discs (``model.type = "micro"``, which has no door capacity): the same law and push from the density
+- The variant "weidmann-push" (WEIDMANN_PUSH, the recommended settings before Predtechenskii and Milinskii's law):
+  Weidmann's law (1993) at 1.34 m/s with PUSH, the least factor of the speed law that keeps a jam moving (0.2
+  passes 1.9 persons/(m s) through the 1 m bottleneck, converged on three meshes), and PUSH_CAPACITY 1.9 on every
+  door (Seyfried et al. 2009: 1.90 at 1.0 m); it falls 35 to 50 % short of the experiments from 1.6 m.
+- The discs (``model.type = "micro"``, which has no door capacity): Weidmann's law and PUSH from the density
   each disc sees, the decelerating strategy of Maury et al. (2011) and an arch-breaking fluctuation
   FLUCTUATION (m/s, docs/micro.md): the smallest of those tried (0.5, 1.0) that lets every disc of
   radius 0.2 m through the 0.5 m and 1 m bottlenecks in each of five seeds.
@@ -24,25 +32,27 @@
 
 from ..macro.speed_law import PM_SPEED
 
-DOOR_CAPACITY = 1.9
 #: the free speed of Predtechenskii and Milinskii's law, m/s (100 m/min: their speed up to D = 0.05)
-PM_FREE_SPEED = float(PM_SPEED[0]) / 60.0
-PUSH = 0.2
+FREE_SPEED = float(PM_SPEED[0]) / 60.0
+#: the capacity of every door: that of its width (mesh/capacity.py width_capacity)
+DOOR_CAPACITY = "auto"
+#: the variant "weidmann-push": Weidmann's free speed (m/s), the push of its law and the capacity of every door
+WEIDMANN_SPEED, PUSH, PUSH_CAPACITY = 1.34, 0.2, 1.9
 FLUCTUATION = 0.5
 
-#: the overrides of the recommended settings, for either model (the capacity is per door: see door_capacity)
-SPEED = {"velocity.speed_law": "weidmann", "velocity.push": PUSH}
+LAW = {"velocity.speed_law": "predtechenskii"}
 WALLS = {"velocity.walls": "slip"}
 #: the recommended time step of the density model
 STEP = {"time.cfl": 1.0}
-#: a law that carries the flows of wide doors (macro/speed_law.py: Predtechenskii, Milinskii 1978; f(rho_max) > 0,
-#: no push), with the capacity of each door's width ("auto", mesh/capacity.py): femcrowd validate's "predtechenskii"
-CARRYING = {"velocity.speed_law": "predtechenskii", "velocity.speed": PM_FREE_SPEED, **WALLS}
-#: the recommended desired velocity and step of the density model
-MACRO = {**SPEED, **WALLS, **STEP}
-DISCS = {**SPEED, "micro.strategy": "decelerate", "micro.fluctuation": FLUCTUATION}
+#: the recommended desired velocity and step of the density model (the speed: FREE_SPEED, or the case's own)
+MACRO = {**LAW, **WALLS, **STEP}
+#: Weidmann's law with its push, either model
+PUSHING = {"velocity.speed_law": "weidmann", "velocity.push": PUSH}
+#: the variant "weidmann-push" of the density model (with PUSH_CAPACITY on every door)
+WEIDMANN_PUSH = {**PUSHING, **WALLS, **STEP}
+DISCS = {**PUSHING, "micro.strategy": "decelerate", "micro.fluctuation": FLUCTUATION}
 
 
-def door_capacity(doors) -> dict:
-    """The override giving every one of `doors` the recommended capacity."""
-    return {"boundary.capacity": {door: DOOR_CAPACITY for door in doors}}
+def door_capacity(doors, capacity=DOOR_CAPACITY) -> dict:
+    """The override giving every one of `doors` the recommended capacity (or `capacity`)."""
+    return {"boundary.capacity": {door: capacity for door in doors}}

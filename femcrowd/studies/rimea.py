@@ -4,10 +4,12 @@ RiMEA e.V., "Guideline for Microscopic Evacuation Analysis", version 3.0 (2016) 
 a scene and the result a model must show. The cases are ``cases/rimea/<test>`` (geometries as in
 JuPedSim's RiMEA tests, Juelich Supercomputing Centre); each runs with every variant of the models
 (:data:`VARIANTS`): the paper's density model and its discs (radius 0.23 m: pi r^2 / hexagonal packing =
-1 / 5.4 m^2, so that a disc is one person at the saturation density rho_max = 5.4 persons/m^2), and the
-settings docs/validation.md recommends for realistic door flows (door capacities, a speed law that pushes,
-arch-breaking discs), and in the tests of route choice (10, 11, 14) the recommended settings with the route choice
-that sees the crowd (``velocity.route = "congestion"``, femcrowd/macro/velocity.py CongestionVelocity). Each test
+1 / 5.4 m^2, so that a disc is one person at the saturation density rho_max = 5.4 persons/m^2), the settings
+docs/validation.md recommends for realistic door flows (Predtechenskii and Milinskii's law at the test's own speed
+with the capacity of each door's width; arch-breaking discs), the settings recommended before (the variant
+weidmann-push: Weidmann's law that pushes, a capacity of 1.9), and in the tests of route choice (10, 11, 14) the
+recommended settings with the route choice that sees the crowd (``velocity.route = "congestion"``,
+femcrowd/macro/velocity.py CongestionVelocity). Each test
 judges what a user reads from the run: history, summary, measurements.csv. The disc runs depend on the
 sampling of the discs and their fluctuation (``micro.seed``), and which arch holds at a door even on round-off:
 with ``seeds`` they run once per seed and each figure is given over the seeds (:class:`Spread`).
@@ -25,7 +27,8 @@ from ..case import load_case
 from ..driver import Simulation
 from ..timer import Stopwatch
 from .execute import Progress
-from .recommended import DISCS, DOOR_CAPACITY, FLUCTUATION, MACRO, PUSH, SPEED, door_capacity
+from .recommended import DISCS, FLUCTUATION, PUSH, PUSH_CAPACITY, PUSHING, WEIDMANN_PUSH, door_capacity
+from .recommended import MACRO as RECOMMENDED
 
 #: the cases (shipped with femcrowd)
 CASES = shipped.cases("rimea")
@@ -36,39 +39,41 @@ ROUTES = {"velocity.route": "congestion"}
 
 @dataclass(frozen=True)
 class Variant:
-    """A column of the table: a model and its settings, as case overrides. ``doors``: whether every door of the
-    test (its exits and its interior doors) gets the capacity DOOR_CAPACITY."""
+    """A column of the table: a model and its settings, as case overrides. ``capacity``: the capacity every door
+    of the test (its exits and its interior doors) gets (persons/(m s), or "auto": that of its width), or None."""
 
     label: str
     overrides: dict
-    doors: bool = False
+    capacity: float | str | None = None
 
     @property
     def micro(self) -> bool:
         return self.overrides.get("model.type") == "micro"
 
 
+DISC_LABEL = f"discs, Weidmann, push {PUSH:g}, decelerating, fluctuation {FLUCTUATION:g} m/s"
 VARIANTS = {
     "macro": Variant("macro (the paper's)", {}),
-    "macro-capacity": Variant(f"macro, doors {DOOR_CAPACITY:g} /(m s)", {}, doors=True),
-    "macro-pushing": Variant(f"macro, Weidmann, push {PUSH:g}", SPEED),
-    "macro-recommended": Variant(f"macro, Weidmann, push {PUSH:g}, doors {DOOR_CAPACITY:g} /(m s) (recommended)",
-                                 MACRO, doors=True),
+    "macro-capacity": Variant(f"macro, doors {PUSH_CAPACITY:g} /(m s)", {}, PUSH_CAPACITY),
+    "macro-pushing": Variant(f"macro, Weidmann, push {PUSH:g}", PUSHING),
+    "macro-recommended": Variant("macro, Predtechenskii-Milinskii, doors of their width (recommended)", RECOMMENDED,
+                                 "auto"),
+    "macro-weidmann-push": Variant(f"macro, Weidmann, push {PUSH:g}, doors {PUSH_CAPACITY:g} /(m s) (weidmann-push)",
+                                   WEIDMANN_PUSH, PUSH_CAPACITY),
     "micro": Variant("discs (the paper's)", {"model.type": "micro"}),
-    "micro-recommended": Variant(f"discs, Weidmann, push {PUSH:g}, decelerating, fluctuation {FLUCTUATION:g} m/s "
-                                 "(recommended)", {"model.type": "micro", **DISCS}),
-    "macro-routes": Variant(f"macro, Weidmann, push {PUSH:g}, doors {DOOR_CAPACITY:g} /(m s), route choice "
-                            "(recommended + congestion)", {**MACRO, **ROUTES}, doors=True),
-    "micro-routes": Variant(f"discs, Weidmann, push {PUSH:g}, decelerating, fluctuation {FLUCTUATION:g} m/s, route "
-                            "choice (recommended + congestion)", {"model.type": "micro", **DISCS, **ROUTES}),
+    "micro-recommended": Variant(f"{DISC_LABEL} (recommended)", {"model.type": "micro", **DISCS}),
+    "macro-routes": Variant("macro, Predtechenskii-Milinskii, doors of their width, route choice (recommended + "
+                            "congestion)", {**RECOMMENDED, **ROUTES}, "auto"),
+    "micro-routes": Variant(f"{DISC_LABEL}, route choice (recommended + congestion)",
+                            {"model.type": "micro", **DISCS, **ROUTES}),
 }
 MODELS = tuple(VARIANTS)
 #: the variants every test runs with (unless it names its own): all but the route choice, which only the tests of
 #: route choice (10, 11, 14) run
-PLAIN = MODELS[:6]
+PLAIN = MODELS[:7]
 #: the density model's columns of PLAIN: the tests the discs cannot run (4: a density; 2, 3, 8, 13, 14: stairs,
 #: docs/floors.md)
-MACRO = PLAIN[:4]
+MACRO = PLAIN[:5]
 
 
 @dataclass
@@ -422,8 +427,9 @@ def run_test(test: RimeaTest, variant: str, cases=CASES, out=None, seed=None, pr
     for k, entry in enumerate(test.cases):
         name, own = (entry, {}) if isinstance(entry, str) else entry
         overrides = {**chosen.overrides, **own, **((test.micro or {}) if chosen.micro else {}), **seeded}
-        if chosen.doors:
-            overrides.update(door_capacity([*load_case(Path(cases) / name)["boundary"]["exits"], *test.doors]))
+        if chosen.capacity is not None:
+            overrides.update(door_capacity([*load_case(Path(cases) / name)["boundary"]["exits"], *test.doors],
+                                           chosen.capacity))
         case = load_case(Path(cases) / name, overrides)
         suffix = ("" if isinstance(entry, str) else f"-{k}") + (f"-seed{seed}" if seeded else "")
         target = Path(out) / f"{name}-{variant}{suffix}" if out is not None else None

@@ -5,7 +5,7 @@ The scene: a waiting area of 8 m x 6 m, a crowd of 2.5 persons/m^2 on its first 
 corridor 2 m long and w wide (0.5 ... 5 m), its far end the exit: the geometry of the Juelich bottleneck
 experiments (Seyfried et al. 2009; Liao et al. 2014). Beyond 2.4 m the scene of 2.4 m is magnified by
 w / 2.4 (every length, the crowd's area and the mesh size: 390 persons at 5 m), so that a wide door has a
-queue as long (in time) as the 2.4 m one. Desired speed 1.34 m/s (the setting "predtechenskii": its law's
+queue as long (in time) as the 2.4 m one. Desired speed 1.34 m/s (the setting "recommended": its law's
 1.67 m/s), rho_max = 5.4 persons/m^2 (Weidmann 1993). The flow J is the slope of the people out against
 time while the queue lasts (from 20 % to 80 % of the crowd out), the specific flow J / w. Every macro
 setting runs on three meshes (the plan's mesh and two uniform refinements), the disc settings on five
@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from ..case import load_case
+from ..case.loading import toml_value
 from ..driver import Simulation
 from ..driver.output import prepare_output_dir
 from ..errors import InputError
@@ -30,7 +31,17 @@ from ..mesh.floorplan import build_mesh
 from ..plot.validation import flows_plot
 from ..timer import Stopwatch
 from .execute import execute
-from .recommended import CARRYING, DISCS, DOOR_CAPACITY, MACRO, PUSH, SPEED, door_capacity
+from .recommended import (
+    DISCS,
+    DOOR_CAPACITY,
+    FREE_SPEED,
+    MACRO,
+    PUSH,
+    PUSH_CAPACITY,
+    PUSHING,
+    WEIDMANN_PUSH,
+    door_capacity,
+)
 
 #: the published figures (source, year, width_m, specific_flow, flow, kind, where, note)
 EXPERIMENTS = Path(__file__).with_name("experiments.csv")
@@ -81,20 +92,20 @@ def _set(overrides: dict) -> tuple:
     return tuple(f"{key}={value}" for key, value in overrides.items())
 
 
-def _capacity() -> str:
-    """The recommended capacity on the scene's exit, as a --set text."""
-    return f"boundary.capacity={{exit={door_capacity(['exit'])['boundary.capacity']['exit']}}}"
+def _capacity(capacity=DOOR_CAPACITY) -> str:
+    """A capacity on the scene's exit (the recommended one by default), as a --set text."""
+    return f"boundary.capacity={{exit={toml_value(door_capacity(['exit'], capacity)['boundary.capacity']['exit'])}}}"
 
 
 SETTINGS = {
     "paper": Setting("macro, constant speed, free exit (the paper's model)", ()),
     "weidmann": Setting("macro, Weidmann's law (f(rho_max) = 0)", ("velocity.speed_law=weidmann",)),
-    "pushing": Setting(f"macro, Weidmann's law, push {PUSH:g}", _set(SPEED)),
-    "capacity": Setting(f"macro, constant speed, door capacity {DOOR_CAPACITY:g} /(m s)", (_capacity(),)),
-    "recommended": Setting(f"macro, Weidmann's law, push {PUSH:g}, door capacity {DOOR_CAPACITY:g} /(m s) "
-                           "(recommended)", (*_set(MACRO), _capacity())),
-    "predtechenskii": Setting("macro, Predtechenskii-Milinskii law, door capacity of the width (auto)",
-                              _set(CARRYING) + ('boundary.capacity={exit="auto"}',)),
+    "pushing": Setting(f"macro, Weidmann's law, push {PUSH:g}", _set(PUSHING)),
+    "capacity": Setting(f"macro, constant speed, door capacity {PUSH_CAPACITY:g} /(m s)", (_capacity(PUSH_CAPACITY),)),
+    "weidmann-push": Setting(f"macro, Weidmann's law, push {PUSH:g}, door capacity {PUSH_CAPACITY:g} /(m s) "
+                             "(weidmann-push)", (*_set(WEIDMANN_PUSH), _capacity(PUSH_CAPACITY))),
+    "recommended": Setting(f"macro, Predtechenskii-Milinskii law at {FREE_SPEED:.2f} m/s, door capacity of the width "
+                           "(recommended)", (*_set({**MACRO, "velocity.speed": FREE_SPEED}), _capacity())),
     "discs-paper": Setting("discs r = 0.2 m, pushing (the paper's discs)",
                            ("model.type=micro", "micro.radius=0.2"), discs=True),
     "discs": Setting(f"discs r = 0.2 m, Weidmann's law, push {PUSH:g}, decelerating, fluctuation "

@@ -2,6 +2,7 @@
 capacity keyed by the names of the mesh's exits and interior doors; the paper's model with ``--model paper``,
 exactly the file ``femcrowd new`` wrote before (tests/case/new_paper/)."""
 
+import math
 import os
 from pathlib import Path
 
@@ -10,7 +11,8 @@ from click.testing import CliRunner
 
 from femcrowd import Simulation, load_case
 from femcrowd.cli import main
-from femcrowd.studies.recommended import DOOR_CAPACITY, MACRO, PUSH
+from femcrowd.mesh.capacity import width_capacity
+from femcrowd.studies.recommended import DOOR_CAPACITY, FREE_SPEED, MACRO
 
 from ..support import MESHES
 
@@ -26,12 +28,13 @@ def new(case_dir, mesh, *options):
 @pytest.mark.parametrize("mesh, doors", [(MESHES / "two_exits.msh", ["exit_narrow", "exit_wide"]),
                                          (MESHES / "stress" / "two_rooms.msh", ["exit", "door"])])
 def test_a_new_case_has_the_recommended_settings_and_runs(tmp_path, mesh, doors):
-    """The capacities are keyed by the mesh's own door names (exits and an interior door), the case runs a few
-    steps with every door capped (its flow column) and keeps mass, 0 <= rho <= rho_max and p >= 0."""
+    """The capacities ("auto": that of each door's width) are keyed by the mesh's own door names (exits and an
+    interior door), Predtechenskii and Milinskii's law at its free speed (100 m/min) with no push; the case runs a
+    few steps with every door capped (its flow column) and keeps mass, 0 <= rho <= rho_max and p >= 0."""
     case = new(tmp_path / "case", mesh)
-    assert case["boundary"]["capacity"] == {name: DOOR_CAPACITY for name in doors}
-    assert case["model"]["rho_max"] == 5.4 and case["velocity"]["speed"] == 1.34
-    assert case["velocity"]["speed_law"] == "weidmann" and case["velocity"]["push"] == PUSH
+    assert case["boundary"]["capacity"] == {name: DOOR_CAPACITY for name in doors} and DOOR_CAPACITY == "auto"
+    assert case["model"]["rho_max"] == 5.4 and case["velocity"]["speed"] == FREE_SPEED == 100 / 60
+    assert case["velocity"]["speed_law"] == "predtechenskii" and case["velocity"]["push"] == 0
     assert all(case[key.split(".")[0]][key.split(".")[1]] == value for key, value in MACRO.items())   # the step too
     result = Simulation(load_case(tmp_path / "case", {"time.end": 0.3})).run(stop_when_empty=False)
     h = result.history
@@ -41,6 +44,17 @@ def test_a_new_case_has_the_recommended_settings_and_runs(tmp_path, mesh, doors)
     assert h["mass_error"].max() < 1e-12 and h["min_density"].min() >= 0
     assert h["max_density"].max() <= 5.4 * (1 + 1e-9) and h["min_pressure"].min() >= 0
     assert h["mass"][0] == pytest.approx(2.0 * Simulation(case).scene.domain.area.sum(), rel=1e-12)
+
+
+def test_a_new_case_runs_long_enough_for_its_exits_capacities(tmp_path):
+    """time.end: the walk (0.4 x the floor's diagonal, in 10 s) and the crowd (2 persons/m^2 on the floor) through
+    the exits at the capacities of their widths, rounded up to 10 s: the 20 m x 12 m floor of two_exits.msh, 480 persons
+    through 1 m and 2 m at 2.08 and 2.365 persons/(m s)."""
+    case = new(tmp_path / "case", MESHES / "two_exits.msh")
+    assert width_capacity(2.0) == pytest.approx(2.08 + (2.57 - 2.08) * 0.8 / 1.2)
+    walk, people = 100.0, 2.0 * Simulation(case).scene.domain.area.sum()
+    expected = 10.0 * math.ceil((walk + people / (width_capacity(1.0) * 1.0 + width_capacity(2.0) * 2.0)) / 10.0)
+    assert case["time"]["end"] == expected == 170.0
 
 
 @pytest.mark.parametrize("mesh", ["entrance_hall", "two_exits", "square"])

@@ -84,11 +84,11 @@ def test_an_unknown_setting_is_one_line(tmp_path):
 
 
 @pytest.mark.slow
-def test_the_recommended_flow_at_the_1_m_bottleneck_converges_near_the_experiments(tmp_path):
-    """The recommended settings (Weidmann's law, push 0.2, door capacity 1.9) at the 1 m bottleneck of femcrowd
+def test_the_weidmann_push_flow_at_the_1_m_bottleneck_converges_near_the_experiments(tmp_path):
+    """The variant weidmann-push (Weidmann's law, push 0.2, door capacity 1.9) at the 1 m bottleneck of femcrowd
     validate: the specific flow changes by less than 5 % between the last two of three meshes and lies within
     25 % of the experiments' 1.9 persons/(m s) (Seyfried et al. 2009: 1.90 at 1.0 m)."""
-    tasks = validation.plan(["recommended"], [1.0], 3, 1, tmp_path)
+    tasks = validation.plan(["weidmann-push"], [1.0], 3, 1, tmp_path)
     flows = np.array([validation.run_task(task)["specific_flow"] for task in tasks])
     assert abs(flows[-1] - flows[-2]) <= 0.05 * flows[-1], flows
     assert abs(flows[-1] - 1.9) <= 0.25 * 1.9, flows
@@ -117,7 +117,7 @@ def test_the_diagram_of_predtechenskii_s_law_is_the_published_one(tmp_path):
     persons/(m s) at 3 persons/m^2); a law without a published diagram is refused in one line."""
     from femcrowd.studies import diagram
 
-    table, text, _ = diagram.diagram(tmp_path / "d", ("predtechenskii",), densities=(3.0,), levels=1, serial=True)
+    table, text, _ = diagram.diagram(tmp_path / "d", ("recommended",), densities=(3.0,), levels=1, serial=True)
     row = table[0]
     assert row["speed"] == pytest.approx(47 / 60, rel=1e-6) and row["published_speed"] == pytest.approx(47 / 60)
     assert row["specific_flow"] == pytest.approx(14.1 / 6, rel=1e-5) and row["within"]
@@ -128,10 +128,10 @@ def test_the_diagram_of_predtechenskii_s_law_is_the_published_one(tmp_path):
 
 @pytest.mark.slow
 def test_predtechenskii_s_law_with_auto_capacities_passes_the_capacity_of_the_width_on_two_meshes(small):
-    """The setting "predtechenskii" at the small 0.6 m bottleneck: the law carries more than the door's capacity
-    of its width (2.08 persons/(m s) at 0.6 m), so the door decides: everyone out, 2.08 within 3 % on two meshes,
-    which agree to 1 %."""
-    overrides = validation.SETTINGS["predtechenskii"].overrides
+    """The setting "recommended" (Predtechenskii and Milinskii's law) at the small 0.6 m bottleneck: the law carries
+    more than the door's capacity of its width (2.08 persons/(m s) at 0.6 m), so the door decides: everyone out,
+    2.08 within 3 % on two meshes, which agree to 1 %."""
+    overrides = validation.SETTINGS["recommended"].overrides
     (coarse, out_coarse), (fine, out_fine) = (specific_flow(small, *overrides, f"mesh.refine={level}")
                                               for level in (0, 1))
     assert min(out_coarse, out_fine) > 0.999
