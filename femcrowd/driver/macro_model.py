@@ -1,6 +1,8 @@
 """The macro model as the driver runs it: its state and solver, its diagnostics table, its frames."""
 
 
+import logging
+
 import numpy as np
 
 from ..errors import InputError
@@ -18,6 +20,24 @@ from .recorder import Column
 from .remaining import Regions
 from .scene import Scene, check_transport_cfl
 from .sources import macro_inflow
+
+log = logging.getLogger("femcrowd")
+
+#: what a step may lose to round-off (docs/model.md, "What every run shows"): the relative mass error, the
+#: complementarity p (1 - rho) over max(1, max p), a density below zero (over rho_max)
+INVARIANT_TOL = 1e-8
+
+
+def broken_invariants(row: dict, rho_max: float) -> str:
+    """The invariants a row of history.csv breaks beyond INVARIANT_TOL, as text ("" if none)."""
+    broken = []
+    if row["mass_error"] > INVARIANT_TOL:
+        broken.append(f"mass + evacuated - supplied = {row['mass_error']:.1e} of the supplied mass")
+    if row["complementarity"] > INVARIANT_TOL * max(1.0, row["max_pressure"]):
+        broken.append(f"complementarity p (1 - rho) = {row['complementarity']:.1e}")
+    if row["min_density"] < -INVARIANT_TOL * rho_max:
+        broken.append(f"density {row['min_density']:.3g} < 0")
+    return "; ".join(broken)
 
 
 def macro_columns(exit_names) -> list:
@@ -89,6 +109,7 @@ class MacroModel:
         self.scene, self.domain = scene, domain
         self.rho_max = case["model"]["rho_max"]
         self.fields = case["output"]["fields"]
+        self.warned = False   # broken invariants are logged once per run
         with scene.timer("assembly"):
             populations = scene.populations
             laws = [p.law for p in populations]
@@ -181,14 +202,19 @@ class MacroModel:
         if self.levels:
             people = self.state.density * self.domain.area * r
             by_exit.update({f"on_{name}": float(people[cells].sum()) for name, cells in self.levels.items()})
-        return {**by_exit, "time": self.state.t, "dt": step[0], "mass": d["mass"] * r,
-                "evacuated": d["evacuated"] * r, "max_density": d["max_density"] * r,
-                "saturated_area": d["saturated_area"], "max_pressure": d["max_pressure"],
-                "active_set_iterations": step[1], "step_seconds": step[2],
-                "min_density": d["min_density"] * r, "min_pressure": d["min_pressure"],
-                "complementarity": d["complementarity"], "linear_residual": step[3],
-                "mass_error": error, "pressure_unsaturated": d["pressure_unsaturated"],
-                "non_finite": d["non_finite"], **(self._population_row() if self.several else {})}
+        row = {**by_exit, "time": self.state.t, "dt": step[0], "mass": d["mass"] * r,
+               "evacuated": d["evacuated"] * r, "max_density": d["max_density"] * r,
+               "saturated_area": d["saturated_area"], "max_pressure": d["max_pressure"],
+               "active_set_iterations": step[1], "step_seconds": step[2],
+               "min_density": d["min_density"] * r, "min_pressure": d["min_pressure"],
+               "complementarity": d["complementarity"], "linear_residual": step[3],
+               "mass_error": error, "pressure_unsaturated": d["pressure_unsaturated"],
+               "non_finite": d["non_finite"], **(self._population_row() if self.several else {})}
+        if not self.warned and (broken := broken_invariants(row, r)):
+            self.warned = True
+            log.warning(f"t = {row['time']:.6g} s: {broken}: this run's figures from then on are not to be trusted "
+                        "(please report the case)")
+        return row
 
     def _door_row(self, info) -> dict:
         """flow_<door> (persons per second), door_pressure_<door> of each door with a capacity in the step of
