@@ -124,7 +124,7 @@ def test_the_whole_rimea_table(tmp_path):
                          ("10", "micro"),   # the paper's discs stall at the door posts (no fluctuation)
                          ("11", "macro"), ("11", "macro-pushing"), ("11", "micro-recommended"),
                          ("4", "macro-recommended"),   # Predtechenskii-Milinskii's diagram against Weidmann's
-                         ("12", "macro-recommended")}  # the judge sees a stream slowing with its density, no jam
+                         ("12", "macro-recommended")}  # a dense stream across room 2, clearer on finer meshes
     # (docs/rimea.md, "The recommended settings")
     # whether the discs' arches hold at the 1 m doors of test 9 and at the corridor of test 12 is decided by
     # round-off (docs/rimea.md)
@@ -145,11 +145,11 @@ def test_rimea_test_8_the_evacuation_time_falls_as_the_stairs_get_faster(tmp_pat
 
 
 @pytest.mark.slow
-def test_rimea_test_12_recommended_loses_its_flow_on_the_way_not_at_the_exit():
-    """Test 12 with the recommended settings but no capacity on the exit (docs/rimea.md, "Test 12 fails by its
-    judge"): the mean flow over the middle 80 % still falls by more than the judge's 0.05 persons/s from the
-    corridor's end to the exit, more than half of it before a line halfway across room 2; and the time from the
-    corridor's end to the exit stops growing once half the people are through (no queue grows at the exit)."""
+def test_rimea_test_12_recommended_loses_its_flow_in_room_2_not_at_the_exit():
+    """Test 12 with the recommended settings but no capacity on the exit (docs/rimea.md, "Test 12 fails"): the
+    mean flow over the middle 80 % still falls by more than the judge's 0.05 persons/s from the corridor's end to
+    the exit, more than half of it before a line halfway across room 2 (so on three meshes); and the people
+    who cross room 2 once the flow is high take at least 3 s longer than the first ones."""
     lines = [{"name": "bottleneck", "from": [15.0, 4.5], "to": [15.0, 5.5]},
              {"name": "middle", "from": [20.0, 0.0], "to": [20.0, 10.0]},
              {"name": "exit", "from": [25.0, 4.5], "to": [25.0, 5.5]}]
@@ -159,9 +159,9 @@ def test_rimea_test_12_recommended_loses_its_flow_on_the_way_not_at_the_exit():
     m, n = result.measurements, rimea.people(result)
     jb, jm, je = (rimea.flow(m, line, n) for line in ("bottleneck", "middle", "exit"))
     assert jb - je > 0.05 and jb - jm > 0.5 * (jb - je), (jb, jm, je)
-    lag = [rimea.crossing_time(m, "exit", q * n) - rimea.crossing_time(m, "bottleneck", q * n)
-           for q in (0.01, 0.5, 0.9, 0.99)]
-    assert lag[1] > lag[0] + 3.0 and np.ptp(lag[1:]) < 0.5, lag
+    first, high = (rimea.crossing_time(m, "exit", q * n) - rimea.crossing_time(m, "bottleneck", q * n)
+                   for q in (0.01, 0.5))
+    assert high > first + 3.0, (first, high)
 
 
 def test_rimea_test_13_a_jam_forms_in_front_of_the_stair(tmp_path):
