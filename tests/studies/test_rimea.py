@@ -9,6 +9,7 @@ from click.testing import CliRunner
 from femcrowd import Simulation, load_case
 from femcrowd.cli import main
 from femcrowd.studies import rimea
+from femcrowd.studies.recommended import door_capacity
 
 
 def test_rimea_test_1_both_models_through_the_command(tmp_path):
@@ -121,7 +122,10 @@ def test_the_whole_rimea_table(tmp_path):
                 if v is not None}
     expected_failures = {("4", "macro"), ("4", "macro-capacity"), ("9", "macro"), ("9", "macro-pushing"),
                          ("10", "micro"),   # the paper's discs stall at the door posts (no fluctuation)
-                         ("11", "macro"), ("11", "macro-pushing"), ("11", "micro-recommended")}   # docs/rimea.md
+                         ("11", "macro"), ("11", "macro-pushing"), ("11", "micro-recommended"),
+                         ("4", "macro-recommended"),   # Predtechenskii-Milinskii's diagram against Weidmann's
+                         ("12", "macro-recommended")}  # a dense stream across room 2, clearer on finer meshes
+    # (docs/rimea.md, "The recommended settings")
     # whether the discs' arches hold at the 1 m doors of test 9 and at the corridor of test 12 is decided by
     # round-off (docs/rimea.md)
     arches = {("9", "micro"), ("12", "micro")}
@@ -138,6 +142,26 @@ def test_rimea_test_8_the_evacuation_time_falls_as_the_stairs_get_faster(tmp_pat
     times = [float(t) for t in re.findall(r"m/s: ([\d.]+) s", row)]
     assert len(times) == 3 and times[0] > times[1] > times[2], row
     assert "falls as the stairs get faster: **documented**" in row and "0 failed verdicts" in result.output, row
+
+
+@pytest.mark.slow
+def test_rimea_test_12_recommended_loses_its_flow_in_room_2_not_at_the_exit():
+    """Test 12 with the recommended settings but no capacity on the exit (docs/rimea.md, "Test 12 fails"): the
+    mean flow over the middle 80 % still falls by more than the judge's 0.05 persons/s from the corridor's end to
+    the exit, more than half of it before a line halfway across room 2 (so on three meshes); and the people
+    who cross room 2 once the flow is high take at least 3 s longer than the first ones."""
+    lines = [{"name": "bottleneck", "from": [15.0, 4.5], "to": [15.0, 5.5]},
+             {"name": "middle", "from": [20.0, 0.0], "to": [20.0, 10.0]},
+             {"name": "exit", "from": [25.0, 4.5], "to": [25.0, 5.5]}]
+    case = load_case(rimea.CASES / "test12-bottlenecks", {**rimea.RECOMMENDED, **door_capacity(["corridor"]),
+                                                          "measure.lines": lines})
+    result = Simulation(case).run(None)
+    m, n = result.measurements, rimea.people(result)
+    jb, jm, je = (rimea.flow(m, line, n) for line in ("bottleneck", "middle", "exit"))
+    assert jb - je > 0.05 and jb - jm > 0.5 * (jb - je), (jb, jm, je)
+    first, high = (rimea.crossing_time(m, "exit", q * n) - rimea.crossing_time(m, "bottleneck", q * n)
+                   for q in (0.01, 0.5))
+    assert high > first + 3.0, (first, high)
 
 
 def test_rimea_test_13_a_jam_forms_in_front_of_the_stair(tmp_path):
