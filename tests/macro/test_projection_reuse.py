@@ -115,18 +115,24 @@ def test_envelope_factorisation_solves_every_saturated_set_inside_it():
     assert not factor.fits(np.flatnonzero(x > 3.0))  # S leaves E: a new envelope is needed
 
 
-@pytest.mark.parametrize("grown", [1, 2, BORDER_MAX])
-def test_bordered_solve_of_a_few_new_cells_equals_a_fresh_solve(grown):
-    """S_0 factorised, S = S_0 + a few cells (neighbours of S_0, and cells that touch only each other):
-    the bordered solve (Schur complement on the new cells) needs no factorisation and equals sparse LU."""
-    import scipy.sparse.linalg as spla
-
+def _factorised_room():
+    """The room's Laplacian A, S_0 (the cells right of x = 6 m) and an envelope Cholesky factor of A_{S_0 S_0}."""
     domain = load_domain(MESHES / "room_one_door.msh", ["exit"])
     A = Boundary(domain).at(0.0).laplacian().tocsr()
     x = domain.centroid[:, 0]
     S0 = np.flatnonzero(x > 6.0)
     factor = EnvelopeCholesky(A, np.flatnonzero(x > 4.0), len(S0))
     assert factor.prepare(S0)
+    return domain, A, S0, factor
+
+
+@pytest.mark.parametrize("grown", [1, 2, BORDER_MAX])
+def test_bordered_solve_of_a_few_new_cells_equals_a_fresh_solve(grown):
+    """S_0 factorised, S = S_0 + a few cells (neighbours of S_0, and cells that touch only each other):
+    the bordered solve (Schur complement on the new cells) needs no factorisation and equals sparse LU."""
+    import scipy.sparse.linalg as spla
+
+    domain, A, S0, factor = _factorised_room()
     front = np.setdiff1d(A[S0].indices, S0)                 # the neighbour layer of S_0
     second = np.setdiff1d(A[front].indices, np.union1d(S0, front))
     J = np.concatenate([front[:grown - grown // 2], second[:grown // 2]])  # coupled to S_0 and/or each other
@@ -145,12 +151,7 @@ def test_bordered_solve_of_cells_that_joined_and_left_equals_a_fresh_solve(joine
     the bordered solve (x_D = 0 by multipliers) needs no factorisation and equals sparse LU on A_SS."""
     import scipy.sparse.linalg as spla
 
-    domain = load_domain(MESHES / "room_one_door.msh", ["exit"])
-    A = Boundary(domain).at(0.0).laplacian().tocsr()
-    x = domain.centroid[:, 0]
-    S0 = np.flatnonzero(x > 6.0)
-    factor = EnvelopeCholesky(A, np.flatnonzero(x > 4.0), len(S0))
-    assert factor.prepare(S0)
+    domain, A, S0, factor = _factorised_room()
     front = np.setdiff1d(A[S0].indices, S0)
     edge = np.intersect1d(A[front].indices, S0)                # the cells of S_0 next to its front
     D = np.concatenate([edge[:left - left // 2], S0[len(S0) // 2:][:left // 2]])
