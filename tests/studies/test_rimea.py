@@ -25,13 +25,15 @@ def test_rimea_test_1_both_models_through_the_command(tmp_path):
 
 def test_rimea_tests_2_and_3_one_person_keeps_its_speed_on_the_stair(tmp_path):
     """A stair 10 m along its slope (docs/floors.md), one person: 20 s up at 0.5 m/s, 13.3 s down at 0.75 m/s, the
-    time on the stair the mean residence time of the density (on_stair over the run); the discs do not run."""
+    time on the stair the mean residence time of the density (on_stair over the run); the disc (no fluctuation)
+    walks the stair in its chart (docs/floors.md, "Discs on stairs") at the stair's speed."""
     result = CliRunner().invoke(main, ["rimea", "--only", "2", "--only", "3", "--model", "macro",
                                        "--model", "micro", "--out", str(tmp_path)])
     assert result.exit_code == 0, result.output
     rows = (tmp_path / "rimea.md").read_text().splitlines()[-2:]
-    assert "| 20.03 s: **pass**" in rows[0] and "| 13.34 s: **pass**" in rows[1], rows
-    assert all(row.count("| not run") == 1 for row in rows), rows
+    assert "| 20.03 s: **pass** (" in rows[0] and "| 13.34 s: **pass** (" in rows[1], rows
+    assert "| 20.00 s: **pass** (" in rows[0] and "| 13.31 s: **pass** (" in rows[1], rows
+    assert not any("not run" in row for row in rows), rows
 
 
 def test_crossing_time_interpolates_the_count():
@@ -129,7 +131,10 @@ def test_the_whole_rimea_table(tmp_path):
     # whether the discs' arches hold at the 1 m doors of test 9 and at the corridor of test 12 is decided by
     # round-off (docs/rimea.md)
     arches = {("9", "micro"), ("12", "micro")}
-    assert {key for key, ok in verdicts.items() if ok is False} - arches == expected_failures   # 8, 14: None
+    # one disc with the recommended fluctuation (0.5 m/s at random) on the stairs of tests 2 and 3: its time on the
+    # stair is that of its random walk (seed 1: 18.87 s up, a fail; 13.83 s down)
+    fluctuating = {("2", "micro-recommended"), ("3", "micro-recommended")}
+    assert {key for key, ok in verdicts.items() if ok is False} - arches - fluctuating == expected_failures
 
 
 @pytest.mark.slow
