@@ -13,10 +13,13 @@ import scipy.sparse as sp
 from femcrowd.macro.projection.solvers import metis_order
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not hasattr(signal, "SIGTERM") or os.name != "posix", reason="POSIX signals")
 def test_a_sigterm_while_metis_orders_reaches_the_handler_and_the_order_is_kept():
     """METIS traps SIGTERM while it runs and fails: a kill in that window used to end a run with METIS's error
-    (driver/loop.py's handler never saw it). The ordering is returned and the handler gets the signal once."""
+    (driver/loop.py's handler never saw it). The ordering is returned and the handler gets the signal once.
+    In the slow tier: METIS leaves its handler by a long jump, and a signal that lands inside malloc leaves the
+    process waiting on malloc's lock for ever (seen once, 2026-11-28, in a default-tier run)."""
     if threading.current_thread() is not threading.main_thread():
         pytest.skip("signals are handled in the main thread")
     n = 400   # a grid graph of 160000 nodes: METIS takes a few tenths of a second
