@@ -57,12 +57,23 @@ def frame_figure(run, plan, k, title, names=None, level_of_service=False):
     """Frame k of a run directory (driver/reading.py RunDirectory) as a map_figure."""
     stem = "solution" if "solution" in run.frames else "discs"
     t, frame = run.frames[stem][k][0], run.frame(stem, k)
+    levels = plan.levels   # a building: its floors side by side, as the pictures draw them (plot/levels.py)
     if stem == "solution":
-        cells, discs = (frame.points, frame.cells_dict["triangle"],
-                        np.asarray(frame.cell_data["density"][0]).ravel()), None
+        density = np.asarray(frame.cell_data["density"][0]).ravel()
+        if levels is None:
+            cells = (frame.points, frame.cells_dict["triangle"], density)
+        else:
+            corners = levels.corners()
+            cells = (corners, np.arange(len(corners)).reshape(-1, 3), density)
+        discs = None
     else:
         radius = np.asarray(frame.point_data.get("radius", np.zeros(len(frame.points))), float)
-        cells, discs = None, (np.asarray(frame.points)[:, :2], radius)
+        points = np.asarray(frame.points, float)
+        if levels is not None:
+            import pyvista as pv
+
+            points = np.asarray(levels.discs(pv.PolyData(points)).points)
+        cells, discs = None, (points[:, :2], radius)
     return map_figure(plan, t, title, run.case, cells, discs, names, level_of_service)
 
 

@@ -149,3 +149,24 @@ def test_the_values_of_a_case_are_escaped():
     text = render({"title": "<script>alert(1)</script> & co", "directory": "d", "run": None, "study": None})
     assert "<script>" not in text and "&lt;script&gt;alert(1)&lt;/script&gt; &amp; co" in text
     assert Page(text).links == []
+
+
+def test_the_maps_of_a_building_draw_each_floor_beside_the_others(tmp_path):
+    """A building's frames are at their elevations: the maps lay the floors side by side as the pictures do
+    (plot/levels.py), each floor's cells under its own walls, not all of them on the ground floor's."""
+    from femcrowd.driver.reading import RunDirectory
+    from femcrowd.plot.pictures import FloorPlan
+    from femcrowd.report.figures import frame_figure
+
+    out = tmp_path / "building"
+    result = CliRunner().invoke(main, ["run", str(CASES / "three-storeys"), "--out", str(out), "-q",
+                                       "--set", "time.end=0.5"])
+    assert result.exit_code == 0, result.output
+    run = RunDirectory(out)
+    plan = FloorPlan(run)
+    figure = frame_figure(run, plan, 0, "the scene")
+    cells = figure.axes[0].collections[0]                       # the tripcolor of the densities
+    x = np.concatenate([path.vertices[:, 0] for path in cells.get_paths()])
+    walls = plan.levels.segments(np.ones(plan.levels.domain.mesh.facets.shape[1], bool))[..., 0]
+    assert x.min() == pytest.approx(walls.min()) and x.max() == pytest.approx(walls.max())
+    assert x.max() - x.min() > 2.5 * np.ptp(plan.levels.domain.points[:, 0])   # three floors over each other in plan
