@@ -67,8 +67,11 @@ def test_an_interior_door_passes_exactly_its_capacity_at_any_implicit_step(tmp_p
 
 def test_the_papers_model_takes_the_cap_in_the_solve_too(tmp_path):
     """The paper's model (f = 1) with the implicit prediction and an interior door: its step is the linearly
-    implicit one with f = 1 (the backward-Euler matrix), the door passes C, the mass is kept."""
-    model = rooms(tmp_path, cfl=4, law="")
+    implicit one with f = 1 (the backward-Euler matrix), the door passes C, the mass is kept; a measurement line
+    on the door counts C t (its facets' flows of the capped solve)."""
+    rooms(tmp_path, cfl=4, law="")
+    line = [{"name": "door", "from": [1.0, 0.0], "to": [1.0, 1.0]}]
+    model = Simulation(load_case(tmp_path, {"measure.lines": line, "time.end": 2.0})).model
     mass0 = model.initial_mass
     while model.state.t < 2.0:
         info = model.solver.step(model.state)
@@ -76,6 +79,9 @@ def test_the_papers_model_takes_the_cap_in_the_solve_too(tmp_path):
         r = invariants(model.domain, model.state)
         assert abs(r["mass"] + r["evacuated"] - mass0) <= 1e-13 and r["min_density"] >= 0
         assert r["max_density"] <= 1 + 1e-9
+    result = Simulation(load_case(tmp_path, {"measure.lines": line, "time.end": 2.0})).run(stop_when_empty=False)
+    m = result.measurements
+    np.testing.assert_allclose(np.abs(m["door_count"]), C * m["time"], rtol=1e-12, atol=1e-15)
 
 
 def test_the_prediction_itself_passes_the_capacity(tmp_path):
