@@ -15,17 +15,18 @@ active set on the capped interior facets:
 - theta_e follows from the sender's row: with B_i = |K| rho_i,K / tau + the inflow of population i into K
   (from the cells upstream) and D_i = |K| / tau + the rates leaving K but e's, population i sends
   theta s_i B_i / (D_i + theta s_i) across e (s_i its unscaled rate), concave and increasing in theta: Newton's
-  iteration from theta = 1 reaches the root from below after its first step (Kelley 1995, Iterative Methods
-  for Linear and Nonlinear Equations, 5.1). The facet is active when theta = 1 sends more than c |e| plus the
-  flow the other way (its B_i are those of the current solve: semismooth Newton on min(flux, c |e|),
-  Hintermueller, Ito, Kunisch 2003).
+  iteration from theta = 1 lands below the root and then rises to it monotonically (Newton's method on a concave
+  increasing function, Ortega, Rheinboldt 1970, Iterative Solution of Nonlinear Equations, ch. 13). The facet
+  is active when theta = 1 sends more than c |e| plus the flow the other way (its B_i are those of the current
+  solve: semismooth Newton on min(flux, c |e|), Hintermueller, Ito, Kunisch 2003).
 - Sweeps: solve every population with the current factors, recompute the active set and the factors from the
   solve, until neither changes. In the order of the flow the inflow B of a sender depends only on the cells
-  upstream of it: a door with no active door upstream has its exact factor after the first sweep, and each
-  sweep settles the doors one step further down the flow, so a chain of k doors takes at most k + 2 sweeps (two
-  on a single door: the free solve and the capped one). A door whose sender lies on a cycle of the flow through
-  it (a facet crossed both ways) converges geometrically instead; at most SWEEPS sweeps are made, then the last
-  solve stands (positive and conservative, the cut of mesh/capacity.py taking what is left above the cap).
+  upstream of it: a capped facet with no active one upstream has its exact factor after the first sweep, and each
+  sweep settles the capped facets one step further down the flow (a sender fed by the sender of another capped
+  facet waits for it): two or three sweeps for one door, three for two doors in a row
+  (tests/macro/test_implicit_capacity.py). A sender on a cycle of the flow through its door (a facet crossed both
+  ways) converges geometrically instead: at most SWEEPS sweeps are made, then the last solve stands (positive and
+  conservative, the cut of mesh/capacity.py taking what is left above the cap).
 
 The flows across a capped exit are not scaled: the doors' cut after the step (Capacities.limit) stays theirs,
 as before, and gives back only to the sender, which is positive.
