@@ -100,9 +100,10 @@ def door_schedule(case: Case, domain: Domain) -> dict:
     return schedule
 
 
-#: the transports whose every stage is one explicit upwind step: a capped interior door gives back to the
-#: cell behind it at most what the step brought it (mesh/capacity.py)
-ONE_STAGE = ("upwind", "compressive")
+#: the transports that take a capacity on an interior door: those whose every stage is one explicit upwind step
+#: (the cut gives back to the cell behind the door at most what the step brought it, mesh/capacity.py) and the
+#: implicit one (the cap in its solve, macro/transport/capped.py)
+INTERIOR_CAPS = ("upwind", "compressive", "implicit")
 
 
 def door_capacity(case: Case, domain: Domain) -> dict:
@@ -121,9 +122,9 @@ def door_capacity(case: Case, domain: Domain) -> dict:
         if not np.all(domain.interior[domain.groups[name]]):
             raise InputError(case.file, key, value, f"{name!r} has boundary edges but is not an exit: a door with a "
                              "capacity is an exit (boundary.exits) or a line between two rooms")
-        if case["scheme"]["transport"] not in ONE_STAGE:
-            raise InputError(case.file, key, value, "a capacity on an interior door needs a one-stage transport "
-                             f"(scheme.transport = {' or '.join(map(repr, ONE_STAGE))})")
+        if case["scheme"]["transport"] not in INTERIOR_CAPS:
+            raise InputError(case.file, key, value, "a capacity on an interior door needs a one-stage or the "
+                             f"implicit transport (scheme.transport = {' or '.join(map(repr, INTERIOR_CAPS))})")
     width = {name: float(domain.length[domain.groups[name]].sum()) for name in capacity}
     persons = {name: width_capacity(width[name]) if value == "auto" else value for name, value in capacity.items()}
     return {name: value / case["model"]["rho_max"] for name, value in persons.items()}

@@ -26,8 +26,11 @@ from .populations import split_correction
 from .projection import CellOrder, PressureFlux, Projection
 from .reconstruction import CellMean, actual_velocity
 from .seen_density import SeenDensity
+from .speed_law import SpeedLaw
 from .state import MacroState
 from .transport import LWR_TRANSPORTS, TRANSPORTS
+from .transport.capped import capped_step
+from .transport.implicit import ImplicitLWRTransport
 from .transport.lwr import LWRTransport, joint_max_dt
 from .velocity import CongestionVelocity
 
@@ -83,12 +86,22 @@ class MacroSolver:
         versions = tuple(v.version(state, exits) for v in self.velocities)
         built = self._transports
         if built is None or built[0] is not exits or built[1] != versions:
-            schemes = [self.lwr_class(self.domain, exits, v.normal_on_facets(state, exits), law) if law is not None
+            # the cap of an interior door in the implicit solve needs its flows: f = 1 as the linearly implicit
+            # scheme (the backward-Euler matrix, solved in the order of the flow)
+            constant = SpeedLaw("constant") if self._caps_in_solve(exits) else None
+            schemes = [self.lwr_class(self.domain, exits, v.normal_on_facets(state, exits), law or constant)
+                       if law is not None or constant is not None
                        else self.transport_class(self.domain, exits, v.normal_on_facets(state, exits),
                                                  v.potential(exits))
                        for v, law in zip(self.velocities, self.laws)]
             self._transports = built = (exits, versions, schemes)
         return built[2]
+
+    def _caps_in_solve(self, exits) -> bool:
+        """Whether the prediction has the caps of interior doors in its solve (the implicit transport,
+        transport/capped.py); the other transports cut after the step (mesh/capacity.py)."""
+        return (self.lwr_class is ImplicitLWRTransport and exits.caps is not None
+                and bool(np.any(exits.caps.receiver >= 0)))
 
     def projection(self, exits) -> Projection:
         """The projection onto {rho <= 1} with these doors (open exits Dirichlet, capacities as door nodes),
@@ -149,10 +162,18 @@ class MacroSolver:
         outflow = np.zeros_like(state.evacuated)
         caps = exits.caps
         through = np.zeros((len(schemes), 0 if caps is None else len(caps.facets)))
-        for i, (scheme, seen) in enumerate(zip(schemes, self._seen(state, schemes))):
-            rho_tilde[i], outflow[i], through[i] = scheme.step(state.rho[i], dt, *seen)
+        for i, prediction in enumerate(self._predictions(state, schemes, exits, dt)):
+            rho_tilde[i], outflow[i], through[i] = prediction
         passed = None if caps is None else caps.limit(rho_tilde, outflow, through, dt, self.domain.area)
         return rho_tilde, outflow, passed
+
+    def _predictions(self, state, schemes, exits, dt) -> list:
+        """The Prediction of each population before the doors' cut: with the caps of the interior doors in the
+        solve of the implicit transport (transport/capped.py), else each population's step."""
+        seen = self._seen(state, schemes)
+        if self._caps_in_solve(exits):
+            return capped_step(schemes, state.rho, dt, seen, exits.caps)[0]
+        return [scheme.step(rho, dt, *extra) for scheme, rho, extra in zip(schemes, state.rho, seen)]
 
     def _correct_step(self, state, rho_tilde, outflow, passed, exits, dt, t_new) -> MacroStep:
         """The correction of the step and the new state; the step's diagnostics (the after_step hooks run on
@@ -187,8 +208,14 @@ class MacroSolver:
         exits = self.boundary.at(state.t)
         schemes = self.transports(state, exits)
         facets = np.arange(len(self.domain.length)) if facets is None else facets
-        flux = sum(scheme.facet_flux(rho, dt, *seen, facets=facets)
-                   for scheme, rho, seen in zip(schemes, state.rho, self._seen(state, schemes)))
+        seen = self._seen(state, schemes)
+        if self._caps_in_solve(exits):   # the prediction of the step, its interior doors capped in the solve
+            predictions = self._predictions(state, schemes, exits, dt)
+            flux = sum(scheme.facet_flux(rho, dt, *extra, facets=facets, predicted=p.rho)
+                       for scheme, rho, extra, p in zip(schemes, state.rho, seen, predictions))
+        else:
+            flux = sum(scheme.facet_flux(rho, dt, *extra, facets=facets)
+                       for scheme, rho, extra in zip(schemes, state.rho, seen))
         if exits.caps is not None:   # the doors' cap of the step (mesh/capacity.py)
             cap = np.zeros(len(self.domain.length))
             cap[exits.caps.facets] = exits.caps.rate * dt

@@ -19,7 +19,10 @@
   schema's 0.5: at the 1 m bottleneck of ``femcrowd validate`` the evacuation times at 50, 90, 99 % and all
   out change by at most 0.03 % from cfl 0.5 on each of two meshes, a fortieth of the change between the meshes,
   in half the steps (docs/performance.md, "The evacuation time against run time"). The implicit transport takes
-  a speed law (linearly implicit, docs/model.md "Steps by accuracy") but is not recommended: see performance.md.
+  a speed law (linearly implicit, docs/model.md "Steps by accuracy") and a capacity on every door, but is not
+  recommended: at the median cell's cfl 1 it is 1.1 to 8.6 % early at t50 against this step on the same mesh on
+  the bottleneck, the hall, cases/route-queues, cases/route-choice and RiMEA 12 (docs/performance.md, "The
+  recommended law's step, explicit or implicit").
 - The variant "weidmann-push" (WEIDMANN_PUSH, the recommended settings before Predtechenskii and Milinskii's law):
   Weidmann's law (1993) at 1.34 m/s with PUSH, the least factor of the speed law that keeps a jam moving (0.2
   passes 1.9 persons/(m s) through the 1 m bottleneck, converged on three meshes), and PUSH_CAPACITY 1.9 on every

@@ -56,7 +56,8 @@ BAD = {
     "capacity of a wall": (BASE, ("boundary.capacity={wall=1.3}",), "boundary.capacity.wall", "1.3",
                            "has boundary edges but is not an exit"),
     "interior door capacity with muscl": (BASE, ("boundary.capacity={door=1.3}", 'scheme.transport="muscl"'),
-                                          "boundary.capacity.door", "1.3", "needs a one-stage transport"),
+                                          "boundary.capacity.door", "1.3",
+                                          "needs a one-stage or the implicit transport"),
 }
 
 

@@ -91,6 +91,10 @@ class ImplicitLWRTransport(LWRTransport):
         super().__init__(domain, exits, normal_velocity, law)
         self.inner = np.flatnonzero(self.receiver < domain.ncells)   # the flows between two cells
         self.flow_order = FlowOrder(self.sender[self.inner], self.receiver[self.inner], domain.ncells)
+        door = self.receiver[self.capped_flows] < domain.ncells
+        #: the flows across the capped interior doors and their positions among the capped facets (their cap is
+        #: in the solve, capped.py; an exit's is the doors' cut after it, mesh/capacity.py)
+        self.door_flows, self.door_position = self.capped_flows[door], self.capped_position[door]
 
     def flows(self, rho, total=None, which=slice(None)):
         """The mass rate of this population along each flow (of `which`): q_e rho_K f(total_L), total the density
@@ -99,22 +103,38 @@ class ImplicitLWRTransport(LWRTransport):
         seen = np.append(total, 0.0)   # the outside is empty
         return rho[self.sender[which]] * self.law(seen[self.receiver[which]]) * self.rate[which]
 
-    def step(self, rho, dt, total=None) -> Prediction:
-        """rho~ of this population, the mass that left through each exit during dt and the net mass through the
-        capped door facets (the fluxes of rho~ with the speed of t^n)."""
-        n = len(rho)
+    def speeds(self, rho, total=None) -> np.ndarray:
+        """The rate of each flow, q_e f(rho^n_L) (total^n_L with several populations)."""
         seen = np.append(rho if total is None else total, 0.0)
-        speed = self.law(seen[self.receiver]) * self.rate   # q_e f(rho^n_L) on each flow
+        return self.law(seen[self.receiver]) * self.rate
+
+    def solve(self, rho, dt, speed) -> np.ndarray:
+        """rho~ of (|K| / tau + out_K) rho~_K - sum_{L -> K} speed_e rho~_L = |K| rho_K / tau, out_K the sum of the
+        speeds leaving K, in the order of the flow."""
+        n = len(rho)
         rho_t = self.flow_order.solve(self.domain.area / dt + np.bincount(self.sender, speed, n), -speed[self.inner],
                                       rho * self.domain.area / dt)
         np.maximum(rho_t, 0.0, out=rho_t)   # the inverse is >= 0: only round-off is clipped
+        return rho_t
+
+    def prediction(self, rho_t, dt, speed) -> Prediction:
+        """The Prediction of rho~ carried by these speeds: the mass out through each exit and across each capped
+        facet."""
         flux = rho_t[self.sender] * speed
         evacuated = dt * np.bincount(self.exit_of_flow, flux[self.exit_flows], self.n_exits)
         through = dt * np.bincount(self.capped_position, self.flow_sign[self.capped_flows] * flux[self.capped_flows],
                                    len(self.capped))
         return Prediction(rho_t, evacuated, through)
 
-    def facet_flux(self, rho, dt, total=None, facets=slice(None)):
+    def step(self, rho, dt, total=None) -> Prediction:
+        """rho~ of this population, the mass that left through each exit during dt and the net mass through the
+        capped door facets (the fluxes of rho~ with the speed of t^n)."""
+        speed = self.speeds(rho, total)
+        return self.prediction(self.solve(rho, dt, speed), dt, speed)
+
+    def facet_flux(self, rho, dt, total=None, facets=slice(None), predicted=None):
         """The mass each facet (of `facets`) carries f2t[0] -> f2t[1] in the step of rho by dt: the fluxes of rho~
-        with the speed of t^n (it solves the step again, as ImplicitUpwindTransport.facet_flux)."""
-        return super().facet_flux(self.step(rho, dt, total).rho, dt, rho if total is None else total, facets)
+        with the speed of t^n (it solves the step again, as ImplicitUpwindTransport.facet_flux, unless given
+        rho~ as `predicted`)."""
+        rho_t = self.step(rho, dt, total).rho if predicted is None else predicted
+        return super().facet_flux(rho_t, dt, rho if total is None else total, facets)
