@@ -93,7 +93,9 @@ class WarmStart:
         phi = np.zeros(n)
         threshold = -self.tol * self.area
         for _ in range(PREDICTOR_ROUNDS + 1):
-            phi[G] += factor.solve(G, -(b + A @ phi)[G])
+            residual = -(b + A @ phi)[G]
+            residual[~inside[G]] = 0.0   # the cells of G that left S carry no equation (their phi is 0)
+            phi[G] += factor.solve(G, residual)
             phi[~inside] = 0.0
             region, w = slice(None), b + A @ phi
             for _ in range(MAX_LOCAL):
