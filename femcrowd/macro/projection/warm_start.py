@@ -74,8 +74,10 @@ class WarmStart:
         """S and phi of this step, guessed from the kept factorisation without a new one.
 
         Alternating Schwarz on the complementarity problem between two overlapping sets of cells:
-        - the factorised set G (the last S, but for the cells that were bordered):
-          phi_G = A_GG^{-1} (-b - A phi_{off G})_G, one substitution with the kept factor;
+        - the factorised set G (the last S, but for the cells that were bordered): phi_G += A_GG^{-1} r_G,
+          one substitution with the kept factor, r = -(b + A phi) on G in S and 0 on the cells of G that
+          left S (their equation is phi = 0, not w = 0: their spare capacity b > 0 would pull phi down
+          over the whole rear of a draining queue);
         - the band B, the cells of S within FRONT_LAYERS layers of those in S outside G or next
           to a cell that left it: local active-set iterations S <- {phi >= 0 on S} U {w < 0 off S}
           (w = b + A phi, re-evaluated where phi changed), each followed by
