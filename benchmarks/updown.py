@@ -141,6 +141,11 @@ def one_size(target, radius, repeat, counts):
 
 
 def main():
+    try:
+        import sksparse.cholmod  # noqa: F401
+    except ImportError:
+        raise SystemExit('benchmarks/updown.py needs scikit-sparse 0.4: apt-get install libsuitesparse-dev, then '
+                         'pip install "scikit-sparse<0.5"')
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=float, nargs="+", default=[2.5e5])
     parser.add_argument("--radius", type=float, default=10.0, help="radius of S_0 around the door [m]")
