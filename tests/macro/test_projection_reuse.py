@@ -83,6 +83,27 @@ def test_predictor_saves_active_set_iterations_and_factorisations(monkeypatch):
     assert factorizations < plain_factorizations
 
 
+def test_predictor_keeps_the_cells_that_left_S_out_of_its_factorised_solve(monkeypatch):
+    """A queue that drains from its rear: S = the cells right of a rear line that moves 0.4 m per step (about 150
+    cells leave S each step). The predictor's solve with the last factor counts the cells that left S as cells
+    without an equation (before: with their spare capacity 1 - rho~, which pulled phi down over the rear of the
+    queue and left the exact iterations a second factorisation): most steps now take one factorisation
+    (measured: 8 of 11 warm steps, 15 factorisations; before 2 of 11, 22), and every step equals a fresh solve."""
+    monkeypatch.setattr(warm_start, "PREDICT_MIN", 0)
+    domain = load_domain(MESHES / "room_one_door.msh", ["exit"])
+    x, y = domain.centroid.T
+    kept = Projector(domain)
+    single = 0
+    for step in range(12):
+        rho_tilde = np.where(x > 2.0 + 0.4 * step, 1.0 + 0.003 * (10 - x) + 0.01 * np.sin(3 * y), 0.6)
+        rho, phi, info = kept(rho_tilde)
+        rho_ref, phi_ref, _ = Projector(domain)(rho_tilde)
+        assert np.abs(phi - phi_ref).max() <= 1e-10 * phi_ref.max()
+        assert np.abs(rho - rho_ref).max() <= 1e-10 and rho.max() <= 1 + 1e-9 and phi.min() >= 0
+        single += step > 0 and info["factorizations"] == 1
+    assert single >= 8
+
+
 def test_adjacency_table_lists_the_off_diagonal_entries_of_A():
     domain = load_domain(MESHES / "room_one_door.msh", ["exit"])
     A = Projector(domain).projection.A

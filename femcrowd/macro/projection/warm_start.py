@@ -74,8 +74,10 @@ class WarmStart:
         """S and phi of this step, guessed from the kept factorisation without a new one.
 
         Alternating Schwarz on the complementarity problem between two overlapping sets of cells:
-        - the factorised set G (the last S, but for the cells that were bordered):
-          phi_G = A_GG^{-1} (-b - A phi_{off G})_G, one substitution with the kept factor;
+        - the factorised set G (the last S, but for the cells that were bordered): phi_G += A_GG^{-1} r_G,
+          one substitution with the kept factor, r = -(b + A phi) on G in S and 0 on the cells of G that
+          left S (their equation is phi = 0, not w = 0: their spare capacity b > 0 would pull phi down
+          over the whole rear of a draining queue);
         - the band B, the cells of S within FRONT_LAYERS layers of those in S outside G or next
           to a cell that left it: local active-set iterations S <- {phi >= 0 on S} U {w < 0 off S}
           (w = b + A phi, re-evaluated where phi changed), each followed by
@@ -93,7 +95,9 @@ class WarmStart:
         phi = np.zeros(n)
         threshold = -self.tol * self.area
         for _ in range(PREDICTOR_ROUNDS + 1):
-            phi[G] += factor.solve(G, -(b + A @ phi)[G])
+            residual = -(b + A @ phi)[G]
+            residual[~inside[G]] = 0.0   # the cells of G that left S carry no equation (their phi is 0)
+            phi[G] += factor.solve(G, residual)
             phi[~inside] = 0.0
             region, w = slice(None), b + A @ phi
             for _ in range(MAX_LOCAL):
