@@ -229,7 +229,7 @@ class CongestionVelocity(ExitsVelocity):
         self.route_every = float(route_every)
         self.mass = np.zeros(domain.ncells)   # the crowd per cell at the last route
         self.choice = {}                      # per heading: the exit each cell heads for (index into the heading)
-        self.walk = {}                        # per exit with a capacity: the walking distance at the nodes
+        self.walk = {}                        # per exit with a capacity (and door state, with a clearance): the walk
         self.hughes = {}                      # per exit without: (cost, Hughes' potential at the nodes), last solve
         # the density people see, from the density given to route(), for Hughes' cost: the macro solver's
         # SeenDensity (macro/seen_density.py); None, the density itself, for the discs (already an average over 1 m)
@@ -305,10 +305,12 @@ class CongestionVelocity(ExitsVelocity):
         if stale:
             solved = self.eikonal.solve_each([self._edges(exits, (name,)) for name in stale], cost)
             self.hughes.update({name: (cost, phi) for name, phi in zip(stale, solved)})
+        band = None if self.clearance == 0 else exits.open   # the clearance band follows the doors (closed: walls)
         for name in heading:
-            if exits.doors[name].capped and name not in self.walk:
-                self.walk[name] = self.eikonal.solve(self._edges(exits, (name,)), self._costed(exits))
-        return np.stack([self.walk[name] if exits.doors[name].capped else self.hughes[name][1] for name in heading])
+            if exits.doors[name].capped and (name, band) not in self.walk:
+                self.walk[name, band] = self.eikonal.solve(self._edges(exits, (name,)), self._costed(exits))
+        return np.stack([self.walk[name, band] if exits.doors[name].capped else self.hughes[name][1]
+                         for name in heading])
 
     def _waits(self, exits, heading, phi, choice) -> np.ndarray:
         """W_e per cell: the crowd that headed for e at the last route and is nearer to e (smaller phi_e, the cell's
