@@ -115,6 +115,11 @@ SCHEMA = {
                      'as it is (in a cell at a wall it may point into the wall, whose facet carries nothing); "slip": '
                      'no component into a wall (U . n <= 0 there, as in the continuum) and every cell that can reach '
                      'an exit has a path of upwind flows to one (docs/model.md, "Walls")', ("paper", "slip")),
+        "clearance": Key(0.0, "number", "for type exits: r (m), the clearance people keep from walls and door posts: "
+                         "the walking distance costs 4 times more within r of a wall, so that the shortest paths "
+                         "round a door post on an arc of radius r instead of meeting at the post (e.g. 0.25, half a "
+                         'shoulder width); 0: the distance of the paper (docs/model.md, "A clearance at the walls")',
+                         low=0),
     },
     "populations": NamedTables(POPULATION, "several populations, one table [populations.<name>] each (name: letters, "
                           "digits, _ and -), sharing one constraint and one pressure; without it the crowd of "

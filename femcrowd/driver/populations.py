@@ -63,10 +63,10 @@ def desired_velocity(case: Case, domain: Domain, boundary: Boundary, spec=None, 
     if case["velocity"]["route"] == "congestion":
         law = SpeedLaw(spec["speed_law"], case["model"]["rho_max"], spec["push"], (case.file, key("speed_law")))
         velocity = CongestionVelocity(domain, speed, targets, law, case["velocity"]["route_every"],
-                                      case["velocity"]["walls"])
+                                      case["velocity"]["walls"], case["velocity"]["clearance"])
         region_speeds(case, domain, velocity)
         return velocity
-    velocity = ExitsVelocity(domain, speed, targets, case["velocity"]["walls"])
+    velocity = ExitsVelocity(domain, speed, targets, case["velocity"]["walls"], case["velocity"]["clearance"])
     region_speeds(case, domain, velocity)
     velocity.cells(boundary.at(0.0))
     return velocity

@@ -28,6 +28,11 @@ Two kinds, chosen by ``[velocity].type``:
 With ``[velocity] walls = "slip"`` the cellwise U of ``exits`` (and of the route choice) has no component into a
 wall and a path of upwind flows to an exit from every cell (macro/walls.py; docs/model.md, "Walls").
 
+With ``[velocity] clearance = r`` the distance is the walk of people who keep a body's clearance r from the
+walls: the eikonal costs SLOWNESS per metre in the cells within r of a wall (the band of the discs' clearance,
+micro/clearance.py), so the shortest paths round a door post on an arc of radius r instead of meeting at the post
+(docs/model.md, "A clearance at the walls").
+
 With ``[velocity] route = "congestion"`` the distance becomes Hughes' potential (Hughes 2002):
 :class:`CongestionVelocity`, re-solved every ``route_every`` seconds and at every door change.
 """
@@ -38,6 +43,7 @@ import json
 import numpy as np
 
 from ..mesh.distance import Eikonal
+from ..micro.clearance import SLOWNESS
 from .walls import wall_treatment
 
 #: the least f(rho) the route choice counts: a jam costs at most 1 / ROUTE_FLOOR times the free walk
@@ -77,9 +83,11 @@ class ExitsVelocity:
     ``targets``: the names of the exits this population heads for (None: all exits); ``walls``: "paper" (the
     P1 direction as it is) or "slip" (no component into a wall, every cell drains: macro/walls.py)."""
 
-    def __init__(self, domain, speed, targets=None, walls="paper"):
+    def __init__(self, domain, speed, targets=None, walls="paper", clearance=0.0):
         self.domain = domain
         self.walls = walls
+        self.clearance = float(clearance)
+        self._bands = {}    # per set of open exits: the cost of the clearance band per cell
         self.speed = speed(domain.centroid[:, 0], domain.centroid[:, 1], 0.0)
         self.targets = None if targets is None else frozenset(targets)
         self.eikonal = Eikonal(domain.points, domain.triangles, domain.z)
@@ -98,11 +106,23 @@ class ExitsVelocity:
         other.cost, other._cells, other.distance = cost, {}, {}
         return other
 
+    def _costed(self, exits, cost=None):
+        """The cost per cell of the eikonal for these open exits: ``cost`` (None: 1) times the clearance band's
+        (``[velocity] clearance`` r: SLOWNESS in the cells whose nodes are on average within r of a wall, closed
+        doors included, by the walking distance to the walls; 1 elsewhere), or None where both are 1."""
+        if self.clearance == 0:
+            return cost
+        if exits.open not in self._bands:
+            walls = self.domain.mesh.facets[:, exits.wall].T
+            near = self.eikonal.solve(walls)[self.domain.triangles].mean(axis=1) < self.clearance
+            self._bands[exits.open] = np.where(near, SLOWNESS, 1.0)
+        return self._bands[exits.open] if cost is None else cost * self._bands[exits.open]
+
     def cells(self, exits) -> np.ndarray:
         """U per cell for these open exits (the distance field is computed on first use)."""
         heading = self._heading(exits)
         if heading not in self._cells:
-            d = self.distance[heading] = self.eikonal.solve(self._edges(exits, heading), self.cost)
+            d = self.distance[heading] = self.eikonal.solve(self._edges(exits, heading), self._costed(exits, self.cost))
             grad = self.domain.gradient(d)
             if len(heading) > 1:
                 self._on_ridges(exits, heading, grad)
@@ -142,7 +162,8 @@ class ExitsVelocity:
         two doors share it, and across it back and forth; a thin layer of crowd would stay there for good.
         People on a watershed pick one of the exits: the one nearest to the cell (mean of its nodes)."""
         t = self.domain.triangles
-        each = np.stack([self.eikonal.solve(self._edges(exits, (name,)), self.cost) for name in heading])
+        cost = self._costed(exits, self.cost)
+        each = np.stack([self.eikonal.solve(self._edges(exits, (name,)), cost) for name in heading])
         nearest = np.argmin(each, axis=0)[t]   # the nearest exit of each node of each cell
         ridge = np.flatnonzero((nearest != nearest[:, :1]).any(axis=1))
         with np.errstate(invalid="ignore"):
@@ -202,13 +223,13 @@ class CongestionVelocity(ExitsVelocity):
     re-solved every ``route_every`` seconds of simulated time and at every door change. At rho = 0 phi_e is the
     distance of :class:`ExitsVelocity`."""
 
-    def __init__(self, domain, speed, targets, law, route_every: float, walls="paper"):
-        super().__init__(domain, speed, targets, walls)
+    def __init__(self, domain, speed, targets, law, route_every: float, walls="paper", clearance=0.0):
+        super().__init__(domain, speed, targets, walls, clearance)
         self.f = law if not law.constant else (lambda rho: 1.0 - np.clip(rho, 0.0, 1.0))
         self.route_every = float(route_every)
         self.mass = np.zeros(domain.ncells)   # the crowd per cell at the last route
         self.choice = {}                      # per heading: the exit each cell heads for (index into the heading)
-        self.walk = {}                        # per exit with a capacity: the walking distance at the nodes
+        self.walk = {}                        # per exit with a capacity (and door state, with a clearance): the walk
         self.hughes = {}                      # per exit without: (cost, Hughes' potential at the nodes), last solve
         # the density people see, from the density given to route(), for Hughes' cost: the macro solver's
         # SeenDensity (macro/seen_density.py); None, the density itself, for the discs (already an average over 1 m)
@@ -278,15 +299,18 @@ class CongestionVelocity(ExitsVelocity):
         doors without a capacity solved together (Eikonal.solve_each, bit for bit the solves one by one) and only if
         the cost changed since their last solve (a crowd gone, or that did not move: the same field); at a door with
         a capacity the walking distance (its queue is the wait; computed once)."""
+        cost = self._costed(exits, self.cost)
         stale = [name for name in heading if not exits.doors[name].capped
-                 and not (name in self.hughes and _same(self.hughes[name][0], self.cost))]
+                 and not (name in self.hughes and _same(self.hughes[name][0], cost))]
         if stale:
-            solved = self.eikonal.solve_each([self._edges(exits, (name,)) for name in stale], self.cost)
-            self.hughes.update({name: (self.cost, phi) for name, phi in zip(stale, solved)})
+            solved = self.eikonal.solve_each([self._edges(exits, (name,)) for name in stale], cost)
+            self.hughes.update({name: (cost, phi) for name, phi in zip(stale, solved)})
+        band = None if self.clearance == 0 else exits.open   # the clearance band follows the doors (closed: walls)
         for name in heading:
-            if exits.doors[name].capped and name not in self.walk:
-                self.walk[name] = self.eikonal.solve(self._edges(exits, (name,)))
-        return np.stack([self.walk[name] if exits.doors[name].capped else self.hughes[name][1] for name in heading])
+            if exits.doors[name].capped and (name, band) not in self.walk:
+                self.walk[name, band] = self.eikonal.solve(self._edges(exits, (name,)), self._costed(exits))
+        return np.stack([self.walk[name, band] if exits.doors[name].capped else self.hughes[name][1]
+                         for name in heading])
 
     def _waits(self, exits, heading, phi, choice) -> np.ndarray:
         """W_e per cell: the crowd that headed for e at the last route and is nearer to e (smaller phi_e, the cell's
