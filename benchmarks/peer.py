@@ -10,12 +10,12 @@ Scenes (each a TOML floor plan, benchmarks/.cache/peer; JuPedSim reads the same 
   triangles, some 1 300 s to empty through the two exits at 1.9 /(m s)). `--only femcrowd` runs one program
   (JuPedSim needs more than 10 minutes for 10 000 agents).
 
-femcrowd runs the macro model with the recommended settings of docs/validation.md (Predtechenskii and
-Milinskii's law at the scene's 1.34 m/s, slip walls, time.cfl 1, the capacity of its width on every exit; `--implicit
-CFL`: the linearly implicit prediction at CFL times the median cell's step instead), as `femcrowd run` does
-(history.csv, a frame every 10 s); JuPedSim
+femcrowd runs the macro model with the recommended settings of femcrowd/studies/recommended.py (MACRO:
+Predtechenskii and Milinskii's law, slip walls, STEP; their free speed FREE_SPEED, 1.67 m/s; door_capacity: the
+capacity of its width on every exit; `--implicit CFL`: the linearly implicit prediction at CFL times the median
+cell's step instead of STEP), as `femcrowd run` does (history.csv, a frame every 10 s); JuPedSim
 its default collision-free speed model (Tordeux et al. 2016) at dt = 0.01 s, agents of radius 0.2 m with
-the same desired speed 1.34 m/s, placed at random (`--seed`) in the crowd's area, each heading for the exit
+the same desired speed FREE_SPEED, placed at random (`--seed`) in the crowd's area, each heading for the exit
 nearest to it and taken out when it reaches a strip 0.5 m deep inside that exit. Wall time: the set-up and the
 run (not the imports, nor the meshing, done once), with the process's CPU time beside it (less sensitive to the
 other jobs of a shared machine); evacuation time: femcrowd's (less than 10^-4 of the crowd inside), the last
@@ -43,7 +43,7 @@ import numpy as np
 from alternating import in_process, median, rounds  # this script's folder is on sys.path
 
 CACHE = Path(__file__).resolve().parent / ".cache" / "peer"
-SPEED, RADIUS, DT = 1.34, 0.2, 0.01
+RADIUS, DT = 0.2, 0.01
 #: simulated seconds after which a run that has not emptied stops
 MAX_TIME = 1000.0
 HALL_PLAN = """size = 0.35
@@ -70,8 +70,6 @@ file = "../{name}.msh"
 exits = ["west", "east"]
 [model]
 rho_max = 5.4
-[velocity]
-speed = {speed}
 [initial]
 density = "{density!r} * (x > {x0}) * (x < {x1}) * (y > {y0}) * (y < {y1})"
 [time]
@@ -100,7 +98,7 @@ def scene(name: str, people: int) -> tuple:
     if not (directory / "case.toml").exists():
         directory.mkdir()
         (directory / "case.toml").write_text(HALL_CASE.format(
-            name=name, w=w, h=h, people=people, speed=SPEED, density=people / ((x1 - x0) * (y1 - y0)), x0=x0,
+            name=name, w=w, h=h, people=people, density=people / ((x1 - x0) * (y1 - y0)), x0=x0,
             x1=x1, y0=y0, y1=y1, end=MAX_TIME * k))
     return directory, plan, box, people
 
@@ -111,13 +109,13 @@ def run_femcrowd(directory: Path, implicit: float = 0.0) -> dict:
     import tempfile
 
     import femcrowd
-    from femcrowd.studies.recommended import MACRO, door_capacity
+    from femcrowd.studies.recommended import FREE_SPEED, MACRO, door_capacity
     from femcrowd.studies.validation import flow
 
     tic, cpu = time.perf_counter(), time.process_time()
     exits = femcrowd.load_case(directory)["boundary"]["exits"]
     step = {} if not implicit else {"scheme.transport": "implicit", "time.cfl_quantile": 0.5, "time.cfl": implicit}
-    case = femcrowd.load_case(directory, {**MACRO, **step, **door_capacity(exits)})
+    case = femcrowd.load_case(directory, {**MACRO, "velocity.speed": FREE_SPEED, **step, **door_capacity(exits)})
     with tempfile.TemporaryDirectory() as tmp:
         result = femcrowd.run(case, out=Path(tmp) / "out")
     wall, cpu = time.perf_counter() - tic, time.process_time() - cpu
@@ -133,6 +131,7 @@ def run_jupedsim(plan_file: Path, box, people: int, seed: int) -> dict:
     import jupedsim as jps
     import shapely
 
+    from femcrowd.studies.recommended import FREE_SPEED
     from femcrowd.studies.validation import flow
 
     plan = tomllib.loads(Path(plan_file).read_text())
@@ -148,7 +147,7 @@ def run_jupedsim(plan_file: Path, box, people: int, seed: int) -> dict:
     for position in positions:   # each agent to the exit nearest to it
         k = int(np.argmin([shapely.Point(position).distance(door) for door in doors]))
         simulation.add_agent(jps.CollisionFreeSpeedModelAgentParameters(
-            position=position, journey_id=journeys[k], stage_id=exits[k], desired_speed=SPEED, radius=RADIUS))
+            position=position, journey_id=journeys[k], stage_id=exits[k], desired_speed=FREE_SPEED, radius=RADIUS))
     times, out = [0.0], [0]
     while simulation.agent_count() > 0 and simulation.elapsed_time() < MAX_TIME:
         simulation.iterate()
