@@ -221,8 +221,8 @@ def main():
         missing = [{"wall": np.nan, "cpu": np.nan, "evacuation": np.nan, "flow": np.nan, "steps": np.nan,
                     "cells": np.nan}]
         f, j = result.get("femcrowd", missing), result.get("JuPedSim", missing)
-        print(f"| {name} | {people} | {median(f, 'wall'):.1f} s ({median(f, 'cpu'):.1f}) | "
-              f"{median(j, 'wall'):.1f} s ({median(j, 'cpu'):.1f}) | "
+        print(f"| {name} | {people} | {median(f, 'wall'):.1f} s ({median(f, 'cpu'):.2f}) | "
+              f"{median(j, 'wall'):.1f} s ({median(j, 'cpu'):.2f}) | "
               f"{median(f, 'evacuation'):.1f} s | {median(j, 'evacuation'):.1f} s | {median(f, 'flow'):.2f} /s | "
               f"{median(j, 'flow'):.2f} /s | {median(f, 'steps'):.0f} ({f[0]['cells']:.0f}) |", flush=True)
     print(f"load average {os.getloadavg()[1]:.1f} (5 min) at the end")
