@@ -38,12 +38,12 @@ def worker(end: float, settings: str, name: str, implicit: float, coarsen: float
     from peer import scene
 
     import femcrowd
-    from femcrowd.studies.recommended import FREE_SPEED, MACRO, PUSH_CAPACITY, PUSHING, door_capacity
+    from femcrowd.studies import recommended as r  # by attribute: a baseline checkout may predate MACRO
 
     directory = scene(*SCENES[name], coarsen)[0]   # made once, under peer.py's cache
     exits = femcrowd.load_case(directory)["boundary"]["exits"]
-    overrides = ({**PUSHING, **door_capacity(exits, PUSH_CAPACITY)} if settings == "weidmann-push" else
-                 {**MACRO, "velocity.speed": FREE_SPEED, **door_capacity(exits)})
+    overrides = ({**r.PUSHING, **r.door_capacity(exits, r.PUSH_CAPACITY)} if settings == "weidmann-push" else
+                 {**r.MACRO, "velocity.speed": r.FREE_SPEED, **r.door_capacity(exits)})
     if implicit:
         overrides.update({"scheme.transport": "implicit", "time.cfl_quantile": 0.5, "time.cfl": implicit})
     with tempfile.TemporaryDirectory() as tmp:
