@@ -3,8 +3,8 @@ meshio writes it), the encoded mesh kept from one frame to the next.
 
 Hand-written because meshio, which wrote the frames before, compresses the points and the cells again for every
 frame and keeps no encoded array: the mesh is half the bytes of a density frame and its compression half the
-cost of the frames, 8-15 % of a run at a frame every 10 s (docs/performance.md, "Small scenes"). The files are
-those meshio writes, read back by meshio (tests/driver/test_vtu.py) and ParaView."""
+cost of the frames, up to 14 % of a run at a frame every 10 s (docs/performance.md, "Small scenes"). The files have
+the layout meshio writes and read back in meshio (tests/driver/test_vtu.py)."""
 
 import base64
 import sys
