@@ -9,13 +9,15 @@ Scenes (each a TOML floor plan, benchmarks/.cache/peer; JuPedSim reads the same 
   over its middle three quarters by two thirds: 10 000 are the density of 1 000 in the hall (about 227 000
   triangles, some 1 300 s to empty through the two exits at 1.9 /(m s)). `--only femcrowd` runs one program
   (JuPedSim needs more than 10 minutes for 10 000 agents).
+`--coarsen K` meshes the halls with cells K times the benchmark's (0.35 m inside, 0.1 m along the exits): K = 2
+has a quarter of its triangles, K = 0.5 four times as many (the evacuation time's dependence on the mesh).
 
-femcrowd runs the macro model with the recommended settings of docs/validation.md (Predtechenskii and
-Milinskii's law at the scene's 1.34 m/s, slip walls, time.cfl 1, the capacity of its width on every exit; `--implicit
-CFL`: the linearly implicit prediction at CFL times the median cell's step instead), as `femcrowd run` does
-(history.csv, a frame every 10 s); JuPedSim
+femcrowd runs the macro model with the recommended settings of femcrowd/studies/recommended.py (MACRO:
+Predtechenskii and Milinskii's law, slip walls, STEP; their free speed FREE_SPEED, 1.67 m/s; door_capacity: the
+capacity of its width on every exit; `--implicit CFL`: the linearly implicit prediction at CFL times the median
+cell's step instead of STEP), as `femcrowd run` does (history.csv, a frame every 10 s); JuPedSim
 its default collision-free speed model (Tordeux et al. 2016) at dt = 0.01 s, agents of radius 0.2 m with
-the same desired speed 1.34 m/s, placed at random (`--seed`) in the crowd's area, each heading for the exit
+the same desired speed FREE_SPEED, placed at random (`--seed`) in the crowd's area, each heading for the exit
 nearest to it and taken out when it reaches a strip 0.5 m deep inside that exit. Wall time: the set-up and the
 run (not the imports, nor the meshing, done once), with the process's CPU time beside it (less sensitive to the
 other jobs of a shared machine); evacuation time: femcrowd's (less than 10^-4 of the crowd inside), the last
@@ -28,6 +30,7 @@ JuPedSim is an optional benchmark dependency: pip install -e '.[peer]' (or pip i
     python benchmarks/peer.py                                   # bottleneck, hall with 100 people
     python benchmarks/peer.py --scenes hall --people 100 1000 --repeat 3
     python benchmarks/peer.py --scenes large-hall --people 10000 --only femcrowd --implicit 4
+    python benchmarks/peer.py --scenes hall --only femcrowd --implicit 1 --coarsen 2
 """
 
 import argparse
@@ -43,22 +46,22 @@ import numpy as np
 from alternating import in_process, median, rounds  # this script's folder is on sys.path
 
 CACHE = Path(__file__).resolve().parent / ".cache" / "peer"
-SPEED, RADIUS, DT = 1.34, 0.2, 0.01
+RADIUS, DT = 0.2, 0.01
 #: simulated seconds after which a run that has not emptied stops
 MAX_TIME = 1000.0
-HALL_PLAN = """size = 0.35
+HALL_PLAN = """size = {size:.6g}
 [outer]
 points = [[0, 0], [{w:.6g}, 0], [{w:.6g}, {h:.6g}], [0, {h:.6g}]]
 [[exits]]
 name = "west"
 from = [0, {y0:.6g}]
 to = [0, {y1:.6g}]
-size = 0.1
+size = {exit_size:.6g}
 [[exits]]
 name = "east"
 from = [{w:.6g}, {y0:.6g}]
 to = [{w:.6g}, {y1:.6g}]
-size = 0.1
+size = {exit_size:.6g}
 """
 HALL_CROWD = (5.0, 35.0, 5.0, 25.0)   # x0, x1, y0, y1 of the crowd in the hall
 #: the hall's scale factor per scene: the large hall has 10 times its area
@@ -70,8 +73,6 @@ file = "../{name}.msh"
 exits = ["west", "east"]
 [model]
 rho_max = 5.4
-[velocity]
-speed = {speed}
 [initial]
 density = "{density!r} * (x > {x0}) * (x < {x1}) * (y > {y0}) * (y < {y1})"
 [time]
@@ -81,8 +82,9 @@ every = 10.0
 """
 
 
-def scene(name: str, people: int) -> tuple:
-    """(case directory, plan file, crowd box, people) of a scene, made once under CACHE."""
+def scene(name: str, people: int, coarsen: float = 1.0) -> tuple:
+    """(case directory, plan file, crowd box, people) of a scene, made once under CACHE; the halls' cells `coarsen`
+    times the benchmark's."""
     from femcrowd.mesh.floorplan import build_mesh
     from femcrowd.studies.validation import scene as bottleneck
 
@@ -91,16 +93,18 @@ def scene(name: str, people: int) -> tuple:
         return directory, directory / "bottleneck.toml", (0.0, 6.0, 0.0, 6.0), 90
     k = HALLS[name]
     w, h = 40.0 * k, 30.0 * k
-    plan, directory = CACHE / f"{name}.toml", CACHE / f"{name}-{people}"
+    mesh = name if coarsen == 1 else f"{name}-coarsen{coarsen:g}"
+    plan, directory = CACHE / f"{mesh}.toml", CACHE / f"{mesh}-{people}"
     if not plan.with_suffix(".msh").exists():
         CACHE.mkdir(parents=True, exist_ok=True)
-        plan.write_text(HALL_PLAN.format(w=w, h=h, y0=h / 2 - 1, y1=h / 2 + 1))
+        plan.write_text(HALL_PLAN.format(w=w, h=h, y0=h / 2 - 1, y1=h / 2 + 1, size=0.35 * coarsen,
+                                         exit_size=0.1 * coarsen))
         build_mesh(plan)
     x0, x1, y0, y1 = box = tuple(k * c for c in HALL_CROWD)
     if not (directory / "case.toml").exists():
         directory.mkdir()
         (directory / "case.toml").write_text(HALL_CASE.format(
-            name=name, w=w, h=h, people=people, speed=SPEED, density=people / ((x1 - x0) * (y1 - y0)), x0=x0,
+            name=mesh, w=w, h=h, people=people, density=people / ((x1 - x0) * (y1 - y0)), x0=x0,
             x1=x1, y0=y0, y1=y1, end=MAX_TIME * k))
     return directory, plan, box, people
 
@@ -111,13 +115,13 @@ def run_femcrowd(directory: Path, implicit: float = 0.0) -> dict:
     import tempfile
 
     import femcrowd
-    from femcrowd.studies.recommended import MACRO, door_capacity
+    from femcrowd.studies.recommended import FREE_SPEED, MACRO, door_capacity
     from femcrowd.studies.validation import flow
 
     tic, cpu = time.perf_counter(), time.process_time()
     exits = femcrowd.load_case(directory)["boundary"]["exits"]
     step = {} if not implicit else {"scheme.transport": "implicit", "time.cfl_quantile": 0.5, "time.cfl": implicit}
-    case = femcrowd.load_case(directory, {**MACRO, **step, **door_capacity(exits)})
+    case = femcrowd.load_case(directory, {**MACRO, "velocity.speed": FREE_SPEED, **step, **door_capacity(exits)})
     with tempfile.TemporaryDirectory() as tmp:
         result = femcrowd.run(case, out=Path(tmp) / "out")
     wall, cpu = time.perf_counter() - tic, time.process_time() - cpu
@@ -133,6 +137,7 @@ def run_jupedsim(plan_file: Path, box, people: int, seed: int) -> dict:
     import jupedsim as jps
     import shapely
 
+    from femcrowd.studies.recommended import FREE_SPEED
     from femcrowd.studies.validation import flow
 
     plan = tomllib.loads(Path(plan_file).read_text())
@@ -148,7 +153,7 @@ def run_jupedsim(plan_file: Path, box, people: int, seed: int) -> dict:
     for position in positions:   # each agent to the exit nearest to it
         k = int(np.argmin([shapely.Point(position).distance(door) for door in doors]))
         simulation.add_agent(jps.CollisionFreeSpeedModelAgentParameters(
-            position=position, journey_id=journeys[k], stage_id=exits[k], desired_speed=SPEED, radius=RADIUS))
+            position=position, journey_id=journeys[k], stage_id=exits[k], desired_speed=FREE_SPEED, radius=RADIUS))
     times, out = [0.0], [0]
     while simulation.agent_count() > 0 and simulation.elapsed_time() < MAX_TIME:
         simulation.iterate()
@@ -173,8 +178,8 @@ def _strip(area, a, b, depth: float = 0.5):
     return shapely.Polygon([a, b, b + depth * normal, a + depth * normal])
 
 
-def worker(tool: str, name: str, people: int, seed: int, implicit: float) -> None:
-    directory, plan, box, people = scene(name, people)
+def worker(tool: str, name: str, people: int, seed: int, implicit: float, coarsen: float) -> None:
+    directory, plan, box, people = scene(name, people, coarsen)
     figures = run_femcrowd(directory, implicit) if tool == "femcrowd" else run_jupedsim(plan, box, people, seed)
     print(json.dumps({k: float(v) for k, v in figures.items()}))
 
@@ -188,11 +193,13 @@ def main():
     parser.add_argument("--seed", type=int, default=1, help="JuPedSim's placement of the agents")
     parser.add_argument("--implicit", type=float, default=0.0, metavar="CFL",
                         help="femcrowd with the implicit prediction at CFL x the median cell's step, not STEP")
-    parser.add_argument("--worker", nargs=5, help=argparse.SUPPRESS)
+    parser.add_argument("--coarsen", type=float, default=1.0, metavar="K",
+                        help="the halls' cells K times the benchmark's (0.35 m, 0.1 m at the exits)")
+    parser.add_argument("--worker", nargs=6, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
-        tool, name, people, seed, implicit = args.worker
-        return worker(tool, name, int(people), int(seed), float(implicit))
+        tool, name, people, seed, implicit, coarsen = args.worker
+        return worker(tool, name, int(people), int(seed), float(implicit), float(coarsen))
     tools = [("femcrowd", None, "femcrowd"), ("JuPedSim", None, "jupedsim")]
     tools = [t for t in tools if args.only in (None, t[2])]
     if args.only != "femcrowd" and importlib.util.find_spec("jupedsim") is None:
@@ -208,15 +215,14 @@ def main():
           "| femcrowd flow | JuPedSim flow | femcrowd steps (triangles) |")
     print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     for name, people in runs:
-        scene(name, people)   # meshed once, before anything is timed
-        result = rounds(tools, args.repeat,
-                        lambda code, tool: in_process(__file__, (tool, name, people, args.seed, args.implicit), code,
-                                                          env))
+        scene(name, people, args.coarsen)   # meshed once, before anything is timed
+        worker_args = (name, people, args.seed, args.implicit, args.coarsen)
+        result = rounds(tools, args.repeat, lambda code, tool: in_process(__file__, (tool, *worker_args), code, env))
         missing = [{"wall": np.nan, "cpu": np.nan, "evacuation": np.nan, "flow": np.nan, "steps": np.nan,
                     "cells": np.nan}]
         f, j = result.get("femcrowd", missing), result.get("JuPedSim", missing)
-        print(f"| {name} | {people} | {median(f, 'wall'):.1f} s ({median(f, 'cpu'):.1f}) | "
-              f"{median(j, 'wall'):.1f} s ({median(j, 'cpu'):.1f}) | "
+        print(f"| {name} | {people} | {median(f, 'wall'):.1f} s ({median(f, 'cpu'):.2f}) | "
+              f"{median(j, 'wall'):.1f} s ({median(j, 'cpu'):.2f}) | "
               f"{median(f, 'evacuation'):.1f} s | {median(j, 'evacuation'):.1f} s | {median(f, 'flow'):.2f} /s | "
               f"{median(j, 'flow'):.2f} /s | {median(f, 'steps'):.0f} ({f[0]['cells']:.0f}) |", flush=True)
     print(f"load average {os.getloadavg()[1]:.1f} (5 min) at the end")

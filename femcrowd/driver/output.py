@@ -21,6 +21,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..files import TEMPORARY, appending, replaced, write_text, writing
+from . import vtu
 from .ownership import LOCK, RunLock
 
 log = logging.getLogger("femcrowd")
@@ -129,6 +130,7 @@ class FrameSeries:
     def __init__(self, directory, stem, frames=None):
         self.directory, self.stem = Path(directory), stem
         self.frames = [(float(t), str(name)) for t, name in frames or ()]
+        self._mesh = {}   # the encoded mesh of the last frame (vtu.write)
         if frames is not None:
             keep = {name for _, name in self.frames}
             for old in self.directory.glob(f"{stem}_*.vtu"):
@@ -140,7 +142,7 @@ class FrameSeries:
     def write(self, t, mesh):
         name = f"{self.stem}_{len(self.frames):05d}.vtu"
         with replaced(self.directory / name) as tmp:
-            meshio.vtu.write(str(tmp), mesh, binary=True, compression="zlib")
+            vtu.write(tmp, mesh, self._mesh)
         self.frames.append((float(t), name))
         self._index()
 

@@ -9,12 +9,12 @@ import signal
 import subprocess
 import time
 
-import meshio
 import numpy as np
 import pytest
 from click.testing import CliRunner
 
 from femcrowd.cli import main
+from femcrowd.driver import vtu
 from femcrowd.driver.output import MARKER
 from femcrowd.driver.ownership import LOCK, RunLock, reading
 from femcrowd.driver.reading import read_frame, read_history, read_pvd
@@ -200,7 +200,7 @@ def test_a_full_disk_stops_the_run_resumable(tmp_path, monkeypatch, where):
     checkpoint intact; --resume (space freed) gives the uninterrupted run."""
     out, whole = tmp_path / "out", tmp_path / "whole"
     assert invoke("run", QUICK, "--out", whole, "-q").exit_code == 0
-    full_disk_after(monkeypatch, meshio.vtu if where == "frame" else np, "write" if where == "frame" else "savez", 3)
+    full_disk_after(monkeypatch, vtu if where == "frame" else np, "write" if where == "frame" else "savez", 3)
     result = invoke("run", QUICK, "--out", out, "-q")
     assert result.exit_code == 2
     name = "solution_00003.vtu" if where == "frame" else "checkpoint.npz"
