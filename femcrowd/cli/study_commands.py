@@ -76,13 +76,17 @@ def convergence(case_dir, levels, cfl, set_values, times, overrides, out, serial
 @main.command("evacuation-times")
 @click.argument("case_dir", type=click.Path())
 @series_options(levels=4)
+@click.option("--settings", type=click.Choice(["case", "recommended"]), default="case", show_default=True,
+              help="case: the case as it is; recommended: the recommended settings of docs/validation.md on it "
+                   "(Predtechenskii and Milinskii's law at its free speed, no push, slip walls, cfl 1, the capacity "
+                   "of its width on every exit and interior door), before --set.")
 @set_option
 @study_out_option("evacuation")
 @serial_option
 @scheduler_option
 @force_option
 @quiet_option
-def evacuation_times(case_dir, levels, cfl, set_values, overrides, out, serial, scheduler, force, quiet):
+def evacuation_times(case_dir, levels, cfl, set_values, settings, overrides, out, serial, scheduler, force, quiet):
     """Evacuation times of a macro case under mesh refinement: when 50, 90, 99 %, all but
     time.empty_fraction of the crowd and the last person (all but half a person) are out, on each level,
     with the change between levels, the observed order and Richardson's estimate of the converged time.
@@ -93,11 +97,12 @@ def evacuation_times(case_dir, levels, cfl, set_values, overrides, out, serial, 
     Examples:
       femcrowd evacuation-times cases/room --levels 3
       femcrowd evacuation-times cases/two-exits --levels 3 --serial --out /tmp/two-exits-times
+      femcrowd evacuation-times cases/room --levels 3 --settings recommended
     """
     from ..studies.evacuation import study
 
     rows, text, out_dir = study(case_dir, levels, out, overrides, cfl, set_values, serial, scheduler, force,
-                                echo=click.echo, quiet=quiet)
+                                echo=click.echo, quiet=quiet, settings=settings)
     click.echo(text)
     click.echo(f"report: {out_dir}/evacuation.md, evacuation.csv")
 

@@ -28,6 +28,7 @@ from ..files import replaced, write_text
 from ..timer import Stopwatch
 from .convergence import plan_study
 from .execute import StudyInterrupted, describe, execute
+from .settings import with_settings
 from .validation import flow
 
 #: the shares of the crowd out whose times are measured; then all but time.empty_fraction, and all but LAST persons
@@ -92,11 +93,14 @@ def observed(values, h) -> tuple[list, list, list]:
 
 
 def study(case_dir, levels: int, out=None, overrides=(), cfls=(), set_values=(), serial: bool = False,
-          scheduler: str | None = None, force: bool = False, echo=None, quiet: bool = True) -> tuple[list, str, object]:
+          scheduler: str | None = None, force: bool = False, echo=None, quiet: bool = True,
+          settings: str = "case") -> tuple[list, str, object]:
     """Run the refinement series and write evacuation.csv and evacuation.md; (rows, report text, directory).
+    settings: "case" or "recommended" (studies/settings.py: the recommended settings on the case, before overrides).
 
     A level that fails or is not reached (Ctrl-C) has no times (nan); the others are tabulated, and StudyFailed
     or Interrupted then says which did not finish, as in a convergence study."""
+    overrides = with_settings(case_dir, settings, overrides)
     base, _, tasks = plan_study(case_dir, levels, overrides, cfls, set_values)
     if base["model"]["type"] != "macro":
         raise InputError(base.file, "model.type", base["model"]["type"],
@@ -121,7 +125,7 @@ def study(case_dir, levels: int, out=None, overrides=(), cfls=(), set_values=(),
         writer.writeheader()
         writer.writerows(rows)
     failed = [(describe(t), r["failed"]) for t, r in zip(tasks, results) if r is not None and "failed" in r]
-    text = report(base, rows, names) + "".join(f"\nfailed: {name}: {reason}" for name, reason in failed)
+    text = report(base, rows, names, overrides) + "".join(f"\nfailed: {name}: {reason}" for name, reason in failed)
     write_text(out_dir / "evacuation.md", text, sync=True)
     kept = f"the finished levels kept in {out_dir}/evacuation.md and evacuation.csv"
     if stopped is not None:
@@ -135,12 +139,14 @@ def _finished(result) -> bool:
     return result is not None and "failed" not in result
 
 
-def report(case, rows, names) -> str:
+def report(case, rows, names, overrides=()) -> str:
     """The markdown tables: per series, per level the times; then per share the differences and orders."""
     lines = [f"# Evacuation times under refinement: {case['title'] or case.directory.name}", "",
              f"Case `{os.path.relpath(case.file)}`. Times (s) at which each share of the crowd is out; "
              "d: the change from the previous level, p: the observed order, t*: Richardson's estimate "
              "of the converged time.", ""]
+    if overrides:
+        lines += ["Overrides of the case (--settings, then --set): " + ", ".join(f"`{o}`" for o in overrides), ""]
     for series in dict.fromkeys(r["series"] for r in rows):
         mine = [r for r in rows if r["series"] == series]
         lines += [f"## {series}", ""]

@@ -1,14 +1,18 @@
 """Evacuation times under refinement (femcrowd evacuation-times): the times read off the evacuated curve, the
 observed orders, and convergence to the exact times of the saturated evacuation (exact solution 3)."""
 
+import csv
 import math
 
 import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from femcrowd.case import load_case
 from femcrowd.cli import main
 from femcrowd.studies.evacuation import evacuation_times, observed, shares, study
+from femcrowd.studies.recommended import FREE_SPEED
+from femcrowd.studies.settings import with_settings
 
 from ..support import CASES
 
@@ -87,3 +91,36 @@ def test_a_failed_level_leaves_the_others_tabulated(tmp_path, monkeypatch):
     rows = report.split("## default")[1].splitlines()
     level = {r.split("|")[1].strip(): r for r in rows if r.startswith("| ") and r.split("|")[1].strip().isdigit()}
     assert set(level) == {"0", "1", "2"} and "| 0.37 |" in level["2"] and "| - |" in level["1"]
+
+
+def test_the_recommended_settings_give_every_exit_and_interior_door_the_capacity_of_its_width():
+    """--settings recommended on a building (corridor-stair: its exit and the two ends of its stair, interior
+    lines): the law at its free speed, no push, slip walls, cfl 1 and "auto" on the three doors; a --set wins."""
+    overrides = with_settings(CASES / "corridor-stair", "recommended", ["velocity.walls=paper"])
+    case = load_case(CASES / "corridor-stair", overrides)
+    velocity = case["velocity"]
+    assert (velocity["speed_law"], velocity["speed"], velocity["push"]) == ("predtechenskii", FREE_SPEED, 0.0)
+    assert case["time"]["cfl"] == 1.0 and velocity["walls"] == "paper"
+    assert case["boundary"]["capacity"] == {"exit": "auto", "stair_foot": "auto", "stair_head": "auto"}
+    assert with_settings(CASES / "corridor-stair", "case", ["velocity.walls=paper"]) == ("velocity.walls=paper",)
+
+
+def test_settings_recommended_runs_what_the_explicit_overrides_run(tmp_path):
+    """The option gives the times of the --set overrides docs/convergence.md spelled out before it, to the bit;
+    the law slows the saturated crowd of exact solution 3 (f = 0.8 at rho_max = 1 person/m^2): the 50, 90 and 99 %
+    times are 15 to 25 % later."""
+    explicit = ["velocity.speed_law=predtechenskii", "velocity.speed=1.6666666666666667", "velocity.push=0",
+                "velocity.walls=slip", "time.cfl=1", 'boundary.capacity={exit="auto"}']
+    runs = {"option": ["--settings", "recommended"], "explicit": [a for o in explicit for a in ("--set", o)],
+            "case": []}
+    times = {}
+    for name, options in runs.items():
+        result = CliRunner().invoke(main, ["evacuation-times", str(CASES / "saturated-exit"), "--levels", "2",
+                                           "--serial", "-q", "--set", "time.end=3.0", *options,
+                                           "--out", str(tmp_path / name)])
+        assert result.exit_code == 0, result.output
+        rows = list(csv.DictReader(open(tmp_path / name / "evacuation.csv")))
+        times[name] = np.array([[float(r[k]) for k in r if k.startswith("t ")] for r in rows])
+    assert np.isfinite(times["case"]).all() and np.array_equal(times["option"], times["explicit"])
+    assert np.all(times["option"][:, :3] > 1.1 * times["case"][:, :3])   # 50, 90, 99 % out
+    assert "velocity.speed_law" in (tmp_path / "option" / "evacuation.md").read_text()
