@@ -112,6 +112,34 @@ def test_the_door_nodes_solve_their_complementarity_problem():
     assert rho.max() <= 1 + 1e-9 and rho.min() >= 0
 
 
+@pytest.mark.parametrize("deficit", [1e-4, 1e-2])
+def test_a_closed_saturated_room_with_space_to_spare_is_not_all_saturated(deficit):
+    """Issue 34: a room behind an exit at capacity (room s = 0: its door nodes push back like a wall) is a closed
+    room of the extended Laplacian. A short step after a long one (the carried phi too large) spread S over the
+    whole room, door nodes included, while the mass lacks `deficit` x area to fill it: the pinned cell was left
+    with w = sum b > 0 and phi > 0, p (1 - rho) up to 0.7. Both steps must solve the LCP: phi >= 0, w >= 0,
+    phi w = 0, 0 <= rho <= 1, the mass kept (the door passes nothing)."""
+    domain = unit_square(16, exits=["left"])
+    doors = Boundary(domain, capacity={"left": 0.3}).at(0.0)
+    caps = doors.caps
+    A = caps.extend(doors.laplacian())
+    scale = np.concatenate([domain.area, domain.area[caps.node_cell]])
+    room = np.zeros(caps.nodes)
+    bump = np.where(domain.centroid[:, 0] < 0.5, 1.0, 0.0)
+    bump -= domain.area @ bump / domain.area.sum()
+    projection = Projection(domain, doors)
+    for height in (1.0, 0.1):   # a long step, then a short one
+        rho_tilde = 1 + height * bump - deficit
+        flux, info = projection(rho_tilde, room)
+        phi = np.concatenate([flux.phi, flux.door])
+        w = np.concatenate([domain.area * (1 - rho_tilde), room]) + A @ phi
+        assert phi.min() >= 0 and w.min() >= -1e-10 * scale.max()
+        assert np.abs(phi * w / scale).max() <= 1e-10
+        rho = flux.apply(rho_tilde, domain.area)
+        assert rho.min() >= 0 and rho.max() <= 1 + 1e-9
+        assert abs(domain.area @ rho - domain.area @ rho_tilde) <= 1e-13
+
+
 def door_plan(tmp_path):
     """A 2 x 1 m channel, the side x = 0 an exit, an interior door across it at x = 1."""
     plan = tmp_path / "plan.toml"

@@ -159,14 +159,15 @@ class Projection:
             rows = gather(self.A, S)
             L, col, in_S, s_in_L = self.sets.neighbourhood(rows, S)
             tight = tight or len(S) <= self.direct_max  # a factorisation solves exactly anyway
-            phi_S, keep = self._solve(rows, S, col, in_S, -b[S], x0, info,
-                                      self.tol if tight else max(self.tol, LOOSE))
+            phi_S, keep, full = self._solve(rows, S, col, in_S, -b[S], x0, info,
+                                            self.tol if tight else max(self.tol, LOOSE))
             Aphi = product(rows, col, len(L), phi_S)
             w = b[L] + Aphi
             # the residual of the linear solve (w = 0 on S but in the gauge cells of closed rooms)
             info["linear_residual"] = float(np.max(np.abs(w[s_in_L][keep]) / self.area[S[keep]], initial=0.0))
             info["iterations"] = iteration
-            new = self._next(S, phi_S, w, strict, L, in_S, s_in_L)
+            spare = self.rooms.spare(S, full, phi_S, w[s_in_L], self.tol * self.area[S])
+            new = self._next(S, phi_S, w, strict, L, in_S, s_in_L, spare)
             if np.array_equal(new, S):
                 if tight:
                     return S, phi_S, L, Aphi
@@ -179,14 +180,17 @@ class Projection:
             S = new
         raise ProjectionError(f"active-set iterations did not terminate in {self.max_iterations}")
 
-    def _next(self, S, phi_S, w, strict, L, in_S, s_in_L):
-        """The active-set update: S <- {phi >= 0 on S} U {w < 0 off S}, with w = b + A phi on L."""
+    def _next(self, S, phi_S, w, strict, L, in_S, s_in_L, spare=None):
+        """The active-set update: S <- {phi >= 0 on S} U {w < 0 off S}, with w = b + A phi on L, but the
+        cells `spare` (positions in S) of the full closed rooms with space to spare (ClosedRooms.spare)."""
         phi_L = np.zeros(len(L))
         phi_L[s_in_L] = phi_S
         # A cell of S with phi = 0 (and w = 0) solves the LCP whether it is in S or not; it
         # stays in S. Dropping it makes a closed saturated room cycle: its gauge cell has
         # phi = 0 exactly, leaves S, and re-enters on a round-off w < 0 the next iteration.
         stay = np.where(in_S, phi_L >= 0, w < -self.tol * self.area[L])
+        if spare is not None:
+            stay[s_in_L[spare]] = False
         mark = self.sets.mark
         mark[L] = True
         far = strict[~mark[strict]]
@@ -211,8 +215,8 @@ class Projection:
         return new[~np.isin(new, drop, assume_unique=True)]
 
     def _solve(self, rows, S, col, in_S, rhs, x0, info, tol):
-        """Solve A_SS phi_S = rhs; returns phi_S and the mask of the cells of S whose equation holds
-        (all but the pinned cells of the closed rooms entirely in S, see rooms.py)."""
+        """Solve A_SS phi_S = rhs; returns phi_S, the mask of the cells of S whose equation holds
+        (all but the pinned cells of the closed rooms entirely in S, see rooms.py) and those rooms."""
         full = self.rooms.full(S)
         keep = self.rooms.unpinned(S, full)
         x = np.zeros(len(S))
@@ -221,4 +225,4 @@ class Projection:
                 A_SS = restriction(rows, col, in_S)
                 return A_SS if keep.all() else A_SS[keep][:, keep]
             x[keep] = self.solver.solve(matrix, S[keep], rhs[keep], x0[keep], info, tol)
-        return self.rooms.gauge_shift(x, S, full), keep
+        return self.rooms.gauge_shift(x, S, full), keep, full

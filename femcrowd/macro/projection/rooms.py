@@ -5,6 +5,12 @@ is a whole connected component of A's graph with no exit cell, so the components
 once per set of open exits. There the solution exists (rho stays 1) and phi is fixed up to a
 constant: one cell per room is pinned (phi = 0) for the solve, then the room is shifted so
 that min phi = 0 (the gauge of docs/model.md).
+
+The columns of A sum to 0 over a closed room, so there sum w = sum b: the pinned cell, whose
+equation is not solved, is left with w = sum b. A room with space to spare (sum b > 0: a room
+behind an exit at capacity, whose door node pushes back like a wall, after a short step) is not
+all saturated; the cells where the shifted phi is 0 then leave S (:meth:`ClosedRooms.spare`):
+with phi = 0 there the rest keeps phi >= 0 and w = 0, and they take w = sum b > 0.
 """
 
 import numpy as np
@@ -34,6 +40,15 @@ class ClosedRooms:
         keep = np.ones(len(S), bool)
         keep[np.searchsorted(S, self.first_cell[full])] = False
         return keep
+
+    def spare(self, S: np.ndarray, full: np.ndarray, x: np.ndarray, w: np.ndarray, tol: np.ndarray) -> np.ndarray:
+        """Positions in S of the cells that leave it: those with x = 0 (the gauge-shifted solution) in each full
+        room whose pinned cell is left with w > tol (w, tol on S)."""
+        pinned = np.searchsorted(S, self.first_cell[full])
+        loose = full[w[pinned] > tol[pinned]]
+        if not loose.size:
+            return np.zeros(0, np.intp)
+        return np.flatnonzero(np.isin(self.component[S], loose) & (x == 0.0))
 
     def gauge_shift(self, x: np.ndarray, S: np.ndarray, full: np.ndarray) -> np.ndarray:
         """x on S shifted in each full room so that its minimum is 0."""
