@@ -145,3 +145,18 @@ def test_a_run_that_ends_before_the_scene_is_empty_has_no_last_out(tmp_path):
     row = corridor.run_task(task)
     assert row["evacuated"] >= 148 - 0.5
     assert not row["all_out"] and np.isnan(row["last_out"])
+
+
+def test_the_corridor_full_behind_its_exit_at_capacity_keeps_every_invariant(tmp_path):
+    """Issue 34: the recommended settings at time.cfl 1, steps cut to the 5 s output times. From about 40 s the
+    corridor is saturated behind the 0.7 m exit at its capacity, a closed room of the projection, and a short
+    step once left a cell with p > 0 below rho_max (complementarity 0.48) drained to -0.62 persons/m^2. Every
+    step: mass + evacuated = inflow to 1e-10, 0 <= rho <= rho_max, p >= 0, p (1 - rho) = 0."""
+    directory = corridor.scene(0.7, 148, 2.943, tmp_path)
+    overrides = ["velocity.speed_law=predtechenskii", "velocity.walls=slip", "time.cfl=1.0",
+                 f"velocity.speed={5 / 3!r}", 'boundary.capacity={exit="auto"}', "output.every=5", "time.end=60"]
+    h = Simulation(load_case(directory, overrides)).run().history
+    assert h["saturated_area"].max() > 0.95 * 8.0 * 1.8   # the corridor saturated
+    assert np.abs(h["mass"] + h["evacuated"] - h["inflow"]).max() <= 1e-10 * 148
+    assert h["min_density"].min() >= 0 and h["max_density"].max() <= 5.4 * (1 + 1e-9)
+    assert h["min_pressure"].min() >= 0 and h["complementarity"].max() <= 1e-9
