@@ -166,7 +166,7 @@ class Projection:
             # the residual of the linear solve (w = 0 on S but in the gauge cells of closed rooms)
             info["linear_residual"] = float(np.max(np.abs(w[s_in_L][keep]) / self.area[S[keep]], initial=0.0))
             info["iterations"] = iteration
-            spare = self.rooms.spare(S, full, phi_S, w[s_in_L], self.tol * self.area[S])
+            spare = self.rooms.spare(S, full, phi_S, w[s_in_L], self.area[S])
             new = self._next(S, phi_S, w, strict, L, in_S, s_in_L, spare)
             if np.array_equal(new, S):
                 if tight:

@@ -7,7 +7,7 @@ constant: one cell per room is pinned (phi = 0) for the solve, then the room is 
 that min phi = 0 (the gauge of docs/model.md).
 
 The columns of A sum to 0 over a closed room, so there sum w = sum b: the pinned cell, whose
-equation is not solved, is left with w = sum b. A room with space to spare (sum b > 0: a room
+equation is not solved, is left with w = sum b. A room with space to spare (sum b > IMBALANCE |K|: a room
 behind an exit at capacity, whose door node pushes back like a wall, after a short step) is not
 all saturated; the cells where the shifted phi is 0 then leave S (:meth:`ClosedRooms.spare`):
 with phi = 0 there the rest keeps phi >= 0 and w = 0, and they take w = sum b > 0.
@@ -15,6 +15,10 @@ with phi = 0 there the rest keeps phi >= 0 and w = 0, and they take w = sum b > 
 
 import numpy as np
 from scipy.sparse.csgraph import connected_components
+
+#: w / |K| of a pinned cell up to which a full room's imbalance sum b is taken for round-off (the sum over the
+#: room's cells: up to 4e-12 in the stress matrix's closed-saturated scene), and the room kept whole in S
+IMBALANCE = 1e-9
 
 
 class ClosedRooms:
@@ -41,11 +45,11 @@ class ClosedRooms:
         keep[np.searchsorted(S, self.first_cell[full])] = False
         return keep
 
-    def spare(self, S: np.ndarray, full: np.ndarray, x: np.ndarray, w: np.ndarray, tol: np.ndarray) -> np.ndarray:
+    def spare(self, S: np.ndarray, full: np.ndarray, x: np.ndarray, w: np.ndarray, area: np.ndarray) -> np.ndarray:
         """Positions in S of the cells that leave it: those with x = 0 (the gauge-shifted solution) in each full
-        room whose pinned cell is left with w > tol (w, tol on S)."""
+        room whose pinned cell is left with w > IMBALANCE |K| (w, area on S)."""
         pinned = np.searchsorted(S, self.first_cell[full])
-        loose = full[w[pinned] > tol[pinned]]
+        loose = full[w[pinned] > IMBALANCE * area[pinned]]
         if not loose.size:
             return np.zeros(0, np.intp)
         return np.flatnonzero(np.isin(self.component[S], loose) & (x == 0.0))
