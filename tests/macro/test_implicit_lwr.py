@@ -164,6 +164,36 @@ def test_a_whirl_is_solved_by_lu_in_the_flow_order():
     np.testing.assert_allclose(scheme.step(rho, dt).rho, expected, rtol=0, atol=1e-13)
 
 
+def test_the_substitution_is_scipys_triangular_solve_bit_for_bit():
+    """The flow order's substitution on its fixed pattern (gstrs called directly, the products D^{-1} N found once)
+    gives spsolve_triangular's solution of (I + D^{-1} N) x = D^{-1} b bit for bit, D^{-1} N and D^{-1} b built
+    by scipy's sparse products: blocks of one to three cells, flows from earlier blocks, some into every cell of
+    a block from one sender (sums of two and three products, in the same order), random values."""
+    rng = np.random.default_rng(7)
+    size = rng.choice([1, 2, 3], 200, p=[0.5, 0.3, 0.2])
+    first = np.concatenate([[0], np.cumsum(size)[:-1]])
+    n = int(size.sum())
+    cells = np.arange(n)
+    rows = np.concatenate([np.repeat(f + np.arange(s), s) for f, s in zip(first, size)])
+    cols = np.concatenate([np.tile(f + np.arange(s), s) for f, s in zip(first, size)])
+    inverse = rng.uniform(0.1, 2.0, len(rows))
+    receiver = rng.choice(cells[cells >= 2], 400)
+    sender = (rng.uniform(size=400) * first[np.searchsorted(first, receiver, side="right") - 1]).astype(int)
+    fed = np.flatnonzero((size > 1) & (first > 0))[:30]   # every cell of 30 blocks fed by cell 0
+    into = np.concatenate([first[k] + np.arange(size[k]) for k in fed])
+    receiver, sender = np.concatenate([receiver, into]), np.concatenate([sender, 0 * into])
+    key = np.unique(receiver * n + sender)
+    receiver, sender = key // n, key % n
+    flow = -rng.uniform(0.0, 1.0, len(key))
+    b = rng.uniform(0.0, 1.0, n)
+    found = flow_order._Substitution(rows, cols, receiver, sender, n).solve(inverse, flow, b)
+    d_inverse = sp.csr_matrix((inverse, (rows, cols)), shape=(n, n))
+    scaled = d_inverse @ sp.csr_matrix((flow, (receiver, sender)), shape=(n, n)) + sp.identity(n, format="csr")
+    expected = spla.spsolve_triangular(scaled, d_inverse @ b, lower=True, unit_diagonal=True)
+    assert np.array_equal(found, expected)
+    assert np.count_nonzero(size[fed] == 3) > 5   # entries summed from three products
+
+
 def test_levels_refuse_a_cycle():
     """levels() is for acyclic graphs: a 3-cycle is an error, not a wrong order."""
     with pytest.raises(ValueError, match="cycle"):
