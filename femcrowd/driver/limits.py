@@ -223,13 +223,13 @@ class Plan:
 
 def _fastest(case, scene, t) -> tuple:
     """The fastest desired speed at time t (cell centroids) and the (key, value) that sets it."""
-    domain, exits = scene.domain, scene.boundary.at(t)
+    exits = scene.boundary.at(t)
     best = (0.0, ("velocity.speed", case["velocity"]["speed"]))
     for population in scene.populations:
         velocity = population.velocity
         field = isinstance(velocity, FieldVelocity)
-        with np.errstate(all="ignore"):   # the exits' U per cell as it is: no point location of the centroids
-            u = np.nan_to_num(velocity.at_points(domain.centroid, t) if field else velocity.cells(exits), nan=np.inf)
+        with np.errstate(all="ignore"):
+            u = np.nan_to_num(velocity.at_centroids(t, exits), nan=np.inf)
         name = ("ux", "uy")[int(np.abs(u[:, 1]).max() > np.abs(u[:, 0]).max())] if field else "speed"
         own = case["populations"].get(population.name, {})
         key = f"populations.{population.name}.{name}" if own.get(name) is not None else f"velocity.{name}"

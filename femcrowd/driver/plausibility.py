@@ -32,13 +32,13 @@ def _population_key(case, name, key):
 
 def _speeds(scene):
     """Desired speeds (at t = 0, over the cells) whose largest is outside SPEEDS, in a case in people/m^2."""
-    case, domain = scene.case, scene.domain
+    case = scene.case
     if case["model"]["rho_max"] == 1:   # densities in fractions of saturation: lengths and times may be unitless
         return []
     exits = scene.boundary.at(0.0)
     found = []
     for population in scene.populations:
-        fastest = float(np.hypot(*population.velocity.at_points(domain.centroid, 0.0, exits).T).max())
+        fastest = float(np.hypot(*population.velocity.at_centroids(0.0, exits).T).max())
         if not SPEEDS[0] <= fastest <= SPEEDS[1]:
             kind = _population_key(case, population.name, "type")[1]
             key, value = _population_key(case, population.name, "speed" if kind == "exits" else "ux")

@@ -66,6 +66,10 @@ class FieldVelocity:
     def at_points(self, xy: np.ndarray, t: float = 0.0, exits=None) -> np.ndarray:
         return np.column_stack([self.ux(xy[:, 0], xy[:, 1], t), self.uy(xy[:, 0], xy[:, 1], t)])
 
+    def at_centroids(self, t: float = 0.0, exits=None) -> np.ndarray:
+        """U at the cell centroids."""
+        return self.at_points(self.domain.centroid, t)
+
     def potential(self, exits=None):
         return None
 
@@ -194,6 +198,10 @@ class ExitsVelocity:
         """U of the triangle containing each point (0 outside the mesh)."""
         cell = self.domain.locate(xy)
         return np.where((cell >= 0)[:, None], self.cells(exits)[np.maximum(cell, 0)], 0.0)
+
+    def at_centroids(self, t: float, exits) -> np.ndarray:
+        """U at the cell centroids: U per cell, without locating the centroids (a point locator's set-up)."""
+        return self.cells(exits)
 
     def normal_on_facets(self, state, exits, facets=slice(None)) -> np.ndarray:
         """(2, F): U_K . n_e on `facets` (default all) for K = f2t[0] and K = f2t[1] (f2t[0] again on the
