@@ -126,10 +126,14 @@ class ExitsVelocity:
         """U per cell for these open exits (the distance field is computed on first use)."""
         heading = self._heading(exits)
         if heading not in self._cells:
-            d = self.distance[heading] = self.eikonal.solve(self._edges(exits, heading), self._costed(exits, self.cost))
+            # with several exits, the distance to each too (_on_ridges): all solved together (Eikonal.solve_each,
+            # bit for bit the solves one by one)
+            edges = [self._edges(exits, (name,)) for name in heading] if len(heading) > 1 else []
+            d, *each = self.eikonal.solve_each([self._edges(exits, heading), *edges], self._costed(exits, self.cost))
+            self.distance[heading] = d
             grad = self.domain.gradient(d)
-            if len(heading) > 1:
-                self._on_ridges(exits, heading, grad)
+            if each:
+                self._on_ridges(np.stack(each), grad)
             self._cells[heading] = self._down(grad, exits, d[self.domain.triangles].mean(axis=1))
         return self._cells[heading]
 
@@ -158,16 +162,15 @@ class ExitsVelocity:
             steep = grad - (np.einsum("ij,ij->i", s, grad) / (1 + (s * s).sum(1)))[:, None] * s
             return steep, np.sqrt(np.einsum("ij,ij->i", grad, steep))
 
-    def _on_ridges(self, exits, heading, grad):
+    def _on_ridges(self, each, grad):
         """On the ridges of d between two exits (cells whose nodes are nearest to different exits), the
-        gradient of the distance to the cell's own nearest exit, in place.
+        gradient of the distance to the cell's own nearest exit, in place (each: the distance to each exit
+        headed for, per node).
 
         There the P1 gradient of d = min_e d_e averages two directions: along the ridge, into a wall where
         two doors share it, and across it back and forth; a thin layer of crowd would stay there for good.
         People on a watershed pick one of the exits: the one nearest to the cell (mean of its nodes)."""
         t = self.domain.triangles
-        cost = self._costed(exits, self.cost)
-        each = np.stack([self.eikonal.solve(self._edges(exits, (name,)), cost) for name in heading])
         nearest = np.argmin(each, axis=0)[t]   # the nearest exit of each node of each cell
         ridge = np.flatnonzero((nearest != nearest[:, :1]).any(axis=1))
         with np.errstate(invalid="ignore"):
