@@ -1,6 +1,7 @@
 """Plausibility warnings (driver/plausibility.py): speeds outside 0.1-5 m/s in a case in people/m^2, Weidmann's
 law with rho_max = 1, discs wider than every exit; one line each, once; none for the shipped cases."""
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -35,6 +36,17 @@ def test_each_warning_names_the_key_and_value(case, override, warning):
     ("narrow-door-micro", "micro.radius=0.39")])   # 0.78 m discs pass the 0.8 m exit
 def test_no_warning_where_nothing_is_implausible(case, override):
     assert warn_implausible(build_scene(load_case(CASES / case, [override]))) == []
+
+
+def test_the_speed_check_locates_no_point():
+    """The desired speeds at the centroids are U per cell (a cell's centroid lies in it): the check builds no point
+    locator of the mesh (10 ms at 6 000 triangles, docs/performance.md "The fixed costs removed"), and its speeds
+    are those of U at the centroids located one by one."""
+    scene = build_scene(load_case(CASES / "bottleneck", ["velocity.speed=134"]))
+    assert "134 m/s" in warn_implausible(scene)[0]
+    assert scene.domain._locator is None
+    velocity, exits = scene.populations[0].velocity, scene.boundary.at(0.0)
+    assert np.array_equal(velocity.at_centroids(0.0, exits), velocity.at_points(scene.domain.centroid, 0.0, exits))
 
 
 def test_shipped_cases_give_no_warning():
