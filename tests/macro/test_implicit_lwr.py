@@ -164,8 +164,10 @@ def test_a_whirl_is_solved_by_lu_in_the_flow_order():
     np.testing.assert_allclose(scheme.step(rho, dt).rho, expected, rtol=0, atol=1e-13)
 
 
-def test_the_substitution_is_scipys_triangular_solve_bit_for_bit():
-    """The flow order's substitution on its fixed pattern (gstrs called directly, the products D^{-1} N found once)
+@pytest.mark.parametrize("direct", [True, False], ids=["gstrs", "public-wrapper"])
+def test_the_substitution_is_scipys_triangular_solve_bit_for_bit(direct, monkeypatch):
+    """The flow order's substitution on its fixed pattern (gstrs called directly, or the public wrapper where
+    scipy's private module is missing; the products D^{-1} N found once)
     gives spsolve_triangular's solution of (I + D^{-1} N) x = D^{-1} b bit for bit, D^{-1} N and D^{-1} b built
     by scipy's sparse products: blocks of one to three cells, flows from earlier blocks, some into every cell of
     a block from one sender (sums of two and three products, in the same order), random values."""
@@ -186,6 +188,8 @@ def test_the_substitution_is_scipys_triangular_solve_bit_for_bit():
     receiver, sender = key // n, key % n
     flow = -rng.uniform(0.0, 1.0, len(key))
     b = rng.uniform(0.0, 1.0, n)
+    if not direct:
+        monkeypatch.setattr(flow_order, "gstrs", None)
     found = flow_order._Substitution(rows, cols, receiver, sender, n).solve(inverse, flow, b)
     d_inverse = sp.csr_matrix((inverse, (rows, cols)), shape=(n, n))
     scaled = d_inverse @ sp.csr_matrix((flow, (receiver, sender)), shape=(n, n)) + sp.identity(n, format="csr")

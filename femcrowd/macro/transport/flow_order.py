@@ -25,8 +25,12 @@ from scipy.sparse.csgraph import connected_components
 # SuperLU's triangular solve, the one spsolve_triangular (scipy >= 1.14) ends in. Called directly: the public
 # wrapper builds an identity, sets the diagonal twice (a sorted search in every column) and checks the matrix at
 # each call, 2.5 to 14 times the solve itself on a fixed pattern (docs/performance.md, "Small scenes").
-# tests/macro/test_implicit_lwr.py checks that the two give the same solution bit for bit.
-from scipy.sparse.linalg._dsolve._superlu import gstrs
+# tests/macro/test_implicit_lwr.py checks that the two give the same solution bit for bit. A scipy without it
+# (a private module may move) falls back on the public wrapper, which gives the same x.
+try:
+    from scipy.sparse.linalg._dsolve._superlu import gstrs
+except ImportError:  # pragma: no cover - scipy's private layout changed
+    gstrs = None
 
 #: the largest cycle whose block is inverted as a dense matrix
 SMALL = 16
@@ -127,6 +131,10 @@ class _Substitution:
         scaled = np.bincount(self.entry, inverse[self.inverse] * flow[self.flow],
                              len(self.indices)).astype(float, copy=False)   # no flow between blocks: int64
         rhs = np.bincount(self.inverse_rows, inverse * b[self.inverse_cols], n)
+        if gstrs is None:
+            strict = sp.csr_matrix((scaled, self.indices, self.indptr), shape=(n, n))
+            return spla.spsolve_triangular(strict + sp.identity(n, format="csr"), rhs, lower=True,
+                                           unit_diagonal=True)
         x, info = gstrs("T", n, n, *self.unit, n, len(scaled), scaled, self.indices, self.indptr, rhs)
         assert info == 0   # a unit triangular matrix is never singular
         return x
