@@ -138,3 +138,30 @@ class ImplicitLWRTransport(LWRTransport):
         rho~ as `predicted`)."""
         rho_t = self.step(rho, dt, total).rho if predicted is None else predicted
         return super().facet_flux(rho_t, dt, rho if total is None else total, facets)
+
+
+class ImplicitGodunovTransport(ImplicitLWRTransport):
+    """``scheme.transport = "implicit-godunov"``: the linearly implicit step of ImplicitLWRTransport with the rates
+    of the explicit scheme's flux frozen at t^n. Across a facet from K to L population i carries
+
+        q_e a_e rho~_i,K,    a_e = F(rho^n_K, rho^n_L) / rho^n_K,
+
+    F the flux of the explicit LWR scheme (lwr.py: Godunov's min(D(rho_K), S(rho_L)) for a unimodal g = r f(r),
+    rho_K f(rho_L) otherwise) of the total density, a_e its limit f(0) at rho^n_K = 0 (0 when S(rho^n_L) = 0). At
+    rho~ = rho^n the flux is the explicit one, so the step tends to the explicit scheme's at first order as
+    tau -> 0; a_e >= 0, so the matrix is that of ImplicitLWRTransport with other rates: an M-matrix, rho~ >= 0
+    and each population's mass kept at any step, the same order of the flow and the same caps in the solve
+    (capped.py). (The frozen-coefficient linearisation of a conservation law, LeVeque 2002, section 4.12, of the
+    flux of Lebacque 1996.)"""
+
+    def speeds(self, rho, total=None) -> np.ndarray:
+        """The rate of each flow, q_e F(rho^n_K, rho^n_L) / rho^n_K (of the total density with several
+        populations)."""
+        if not self.godunov:
+            return super().speeds(rho, total)
+        seen = np.append(rho if total is None else total, 0.0)
+        sender = seen[self.sender]
+        supply = self.law.supply(seen[self.receiver])
+        flux = np.minimum(self.law.demand(sender), supply)
+        limit = np.where(supply > 0, self.law(np.zeros(1)), 0.0)   # the rate of an empty sender
+        return np.divide(flux, sender, out=limit, where=sender > 0) * self.rate
