@@ -224,7 +224,7 @@ def read_positions(case: Case) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def check_transport_cfl(case: Case, transport) -> None:
     """Refuse a time step beyond the transport's own CFL number (max_cfl: 1 for upwind, beyond
     which densities can become negative; 0.5 for the higher-order transports, beyond which
-    they oscillate; 100 for the implicit one, positive at any step).
+    they oscillate; 100 for the implicit ones, positive at any step).
 
     transport: the transport object, or its class when the case has no time.dt."""
     name, limit, dt, cfl = case["scheme"]["transport"], transport.max_cfl, case["time"]["dt"], case["time"]["cfl"]

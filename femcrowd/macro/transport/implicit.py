@@ -166,7 +166,7 @@ class ImplicitGodunovTransport(ImplicitLWRTransport):
     the sum of the rates q_e a_e leaving K: explicit (y = rho^n, the explicit scheme's flux) in every cell whose
     CFL-1 step the step does not exceed, implicit only as much as keeps the explicit part's coefficient
     |K| / tau - (1 - omega_K) out_K >= 0 (a cell-wise theta scheme, as the mixed explicit implicit schemes of
-    small cells, May, Berger 2017, J. Sci. Comput. 71; in one dimension its numerical diffusion is
+    small cells, May, Berger 2017, J. Sci. Comput.; in one dimension its numerical diffusion is
     |1 - c_K| |v| h / 2 at the cell's Courant number c_K, against (1 + c_K) |v| h / 2 for backward Euler).
 
     The system (solve) has the pattern of ImplicitLWRTransport's with the rates omega_K q_e a_e >= 0 and a
