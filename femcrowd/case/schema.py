@@ -191,9 +191,10 @@ SCHEMA = {
         "transport": Key("upwind", "choice", "the prediction: order-0 upwind; limited linear reconstruction with "
                          "SSP-RK2 (muscl) or one Euler stage (compressive); backward-Euler upwind, positive at any "
                          "time step (implicit; with a speed law linearly implicit, the speed of the step's start); "
-                         "the same with the rates of the explicit LWR fluxes (Godunov's for a unimodal flow) at the "
-                         "step's start, which it tends to as the step shrinks (implicit-godunov; docs/model.md, "
-                         "\"Steps by accuracy\")",
+                         "the explicit fluxes (upwind; with a speed law the LWR fluxes, Godunov's for a unimodal "
+                         "flow) with their rates at the step's start, implicit only in the cells whose CFL-1 step the "
+                         "step exceeds: the explicit step within it, positive at any step (implicit-godunov; "
+                         "docs/model.md, \"Steps by accuracy\")",
                          registry.transports),
     },
     "exact": Key(None, "exact", "the exact solution of the case, the reference of femcrowd convergence: "

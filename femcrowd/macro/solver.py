@@ -86,9 +86,10 @@ class MacroSolver:
         versions = tuple(v.version(state, exits) for v in self.velocities)
         built = self._transports
         if built is None or built[0] is not exits or built[1] != versions:
-            # the cap of an interior door in the implicit solve needs its flows: f = 1 as the linearly implicit
-            # scheme (the backward-Euler matrix, solved in the order of the flow)
-            constant = SpeedLaw("constant") if self._caps_in_solve(exits) else None
+            # the cap of an interior door in the implicit solve needs its flows, and implicit-godunov is its own
+            # scheme for f = 1 too: f = 1 as the linearly implicit scheme (solved in the order of the flow)
+            every = self._caps_in_solve(exits) or self.lwr_class.every_law
+            constant = SpeedLaw("constant") if every else None
             schemes = [self.lwr_class(self.domain, exits, v.normal_on_facets(state, exits), law or constant)
                        if law is not None or constant is not None
                        else self.transport_class(self.domain, exits, v.normal_on_facets(state, exits),

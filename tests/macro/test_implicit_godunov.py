@@ -175,3 +175,27 @@ def test_measurement_lines_count_the_mass_the_step_moves(tmp_path):
         assert sign @ moved == pytest.approx(change, rel=0, abs=1e-13)
         lost += change
     assert lost > 0.05
+
+
+def test_the_papers_model_takes_the_scheme_too():
+    """No speed law (f = 1) on cases/bottleneck: implicit-godunov is ImplicitGodunovTransport with f = 1, at a fixed
+    step within the CFL step the explicit upwind step (to 1e-8 after 30 steps: the law's r* is 1 to 1e-9), and at
+    cfl 8 on the median cell it keeps the mass and the bounds."""
+    paper = ["velocity.speed_law=constant", "velocity.push=0"]
+    upwind = Simulation(load_case(CASES / "bottleneck", paper + ["scheme.transport=upwind"])).model
+    dt = 0.9 * upwind.solver.stable_dt(upwind.state) / 0.5   # 0.9 of the CFL step (cfl 0.5 by default)
+    fixed = [f"time.dt={dt!r}"]
+    upwind = Simulation(load_case(CASES / "bottleneck", paper + fixed)).model
+    ours = Simulation(load_case(CASES / "bottleneck", paper + fixed + ["scheme.transport=implicit-godunov"])).model
+    assert isinstance(ours.solver.transports(ours.state, ours.solver.boundary.at(0.0))[0], ImplicitGodunovTransport)
+    for _ in range(30):
+        assert upwind.solver.step(upwind.state).dt == ours.solver.step(ours.state).dt == dt
+    np.testing.assert_allclose(ours.state.rho, upwind.state.rho, rtol=0, atol=1e-8)
+    large = Simulation(load_case(CASES / "bottleneck", paper + ["scheme.transport=implicit-godunov",
+                                                                 "time.cfl_quantile=0.5", "time.cfl=8"])).model
+    m0 = large.state.rho @ large.domain.area
+    for _ in range(10):
+        large.solver.step(large.state)
+        r = invariants(large.domain, large.state)
+        assert abs(r["mass"] + r["evacuated"] - m0.sum()) <= 1e-12 * m0.sum()
+        assert r["min_density"] >= 0 and r["max_density"] <= 1 + 1e-9 and r["min_pressure"] >= 0

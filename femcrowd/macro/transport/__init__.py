@@ -19,7 +19,8 @@ from .muscl import CompressiveTransport, MUSCLTransport
 from .upwind import UpwindTransport
 
 #: [scheme] transport: order-0 upwind; linear reconstruction + SSP-RK2; the same with one Euler stage;
-#: backward-Euler upwind (any time step), twice: the two differ only with a speed law
+#: backward-Euler upwind (any time step); implicit-godunov is built by LWR_TRANSPORTS for every law, f = 1 too
+#: (MacroSolver.transports), its entry here names it
 TRANSPORTS = {"upwind": UpwindTransport, "muscl": MUSCLTransport, "compressive": CompressiveTransport,
               "implicit": ImplicitUpwindTransport, "implicit-godunov": ImplicitUpwindTransport}
 #: the scheme of a population with a speed law, per [scheme] transport (the others refuse a speed law)

@@ -173,7 +173,10 @@ class ImplicitGodunovTransport(ImplicitLWRTransport):
     right-hand side >= 0: an M-matrix, so rho~ >= 0 and each population's mass is kept at any step; the same order
     of the flow and the same caps in the solve (capped.py). As tau -> 0 (omega = 0 once tau is within every cell's
     CFL-1 step) the step is the explicit scheme's. With several populations a_e is the same for all (the total's)
-    and omega_K is each one's own."""
+    and omega_K is each one's own. The paper's model (f = 1) takes it too: the upwind scheme, implicit only in the
+    cells whose CFL-1 step the step exceeds."""
+
+    every_law = True
 
     def speeds(self, rho, total=None) -> np.ndarray:
         """The rate of each flow, q_e F(rho^n_K, rho^n_L) / rho^n_K (of the total density with several

@@ -28,6 +28,9 @@ from .upwind import Prediction, UpwindTransport
 class LWRTransport(UpwindTransport):
     """The LWR fluxes of one population with speed law ``law`` (femcrowd.macro.speed_law.SpeedLaw)."""
 
+    #: whether a population without a speed law takes this scheme too (with f = 1), not the transport's own
+    every_law = False
+
     def __init__(self, domain, exits, normal_velocity, law):
         super().__init__(domain, exits, normal_velocity)
         self.law = law
