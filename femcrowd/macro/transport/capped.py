@@ -18,7 +18,10 @@ active set on the capped interior facets:
   iteration from theta = 1 lands below the root and then rises to it monotonically (Newton's method on a concave
   increasing function, Ortega, Rheinboldt 1970, Iterative Solution of Nonlinear Equations, ch. 13). The facet
   is active when theta = 1 sends more than c |e| plus the flow the other way (its B_i are those of the current
-  solve: semismooth Newton on min(flux, c |e|), Hintermueller, Ito, Kunisch 2003).
+  solve: semismooth Newton on min(flux, c |e|), Hintermueller, Ito, Kunisch 2003). With an implicit share
+  omega < 1 at the sender (ImplicitGodunovTransport: the flows carry omega rho~_K + (1 - omega) rho_K) the row
+  gives theta s_i B'_i / (D_i + omega theta s_i), B'_i = omega B_i + (1 - omega) rho_i,K D_i, B_i and D_i with the
+  explicit part of the other rates: the same Newton iteration, exact at once where omega = 0 (linear in theta).
 - Sweeps: solve every population with the current factors, recompute the active set and the factors from the
   solve, until neither changes. In the order of the flow the inflow B of a sender depends only on the cells
   upstream of it: a capped facet with no active one upstream has its exact factor after the first sweep, and each
