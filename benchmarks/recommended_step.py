@@ -36,10 +36,10 @@ REFERENCE = ("explicit LWR, cfl 1", {"time.cfl": 1.0})
 CFLS = {"implicit": (1, 2), "implicit-godunov": (1, 2, 4)}
 
 
-def series(transport: str) -> list:
-    """(label, overrides) of each step of `transport` on the median cell."""
+def series(transport: str, cfls=None) -> list:
+    """(label, overrides) of each step of `transport` on the median cell (its CFLS, or `cfls`)."""
     return [(f"{transport}, median cell, cfl {c:g}", {"scheme.transport": transport, "time.cfl_quantile": 0.5,
-                                                      "time.cfl": float(c)}) for c in CFLS[transport]]
+                                                      "time.cfl": float(c)}) for c in cfls or CFLS[transport]]
 
 
 def small_step(transport: str) -> tuple:
@@ -90,10 +90,11 @@ def main():
     parser.add_argument("--scenes", nargs="+", default=list(SCENES), choices=list(SCENES))
     parser.add_argument("--levels", type=int, default=1, help="meshes: mesh.refine 0..levels-1")
     parser.add_argument("--transports", nargs="+", default=list(CFLS), choices=list(CFLS))
+    parser.add_argument("--cfl", nargs="+", type=float, help="the median cell's cfl numbers (default: CFLS)")
     parser.add_argument("--small-step", action="store_true", help="also the implicit prediction at a tenth of the "
                         "smallest cell's step")
     args = parser.parse_args()
-    steps = [row for transport in args.transports for row in series(transport)]
+    steps = [row for transport in args.transports for row in series(transport, args.cfl)]
     rules = [REFERENCE, *steps, *[small_step(t) for t in args.transports if args.small_step]]
     within = dict.fromkeys([label for label, _ in steps], True)   # each rule within 1 % on every scene and mesh
     for name in args.scenes:

@@ -8,8 +8,9 @@ computed only when asked), ``max_dt`` (the CFL-1 step of the upwind scheme for t
 schemes: ``[scheme] transport`` of a case takes its keys. ``LWRTransport`` (the fluxes of a speed
 that depends on the density, built with the law instead of a potential) is chosen by
 ``[velocity] speed_law``, not by name; ``LWR_TRANSPORTS`` gives the speed-law scheme of each transport that has
-one (``implicit``: the linearly implicit ``ImplicitLWRTransport``; ``implicit-godunov``: the same with the explicit
-fluxes' rates frozen at the step's start, ``ImplicitGodunovTransport``). ``IMPLICIT``: the transports positive at
+one (``implicit``: the linearly implicit ``ImplicitLWRTransport``; ``implicit-godunov``: the explicit
+fluxes' rates frozen at the step's start, implicit only in the cells whose CFL step the step exceeds,
+``ImplicitGodunovTransport``, for f = 1 too). ``IMPLICIT``: the transports positive at
 any step (their step may be set by a quantile of the cells', their density may pass 1 within a step).
 """
 
