@@ -135,12 +135,13 @@ SCHEMA = {
     "time": {
         "end": Key(10.0, "number", "end time (s)", low=0, low_open=True),
         "cfl": Key(0.5, "number", "time step as a fraction of the CFL-1 step of the upwind transport, in "
-                   "(0, 1] for upwind, (0, 0.5] for muscl and compressive, (0, 100] for implicit"),
+                   "(0, 1] for upwind, (0, 0.5] for muscl and compressive, (0, 100] for implicit and "
+                   "implicit-godunov"),
         "cfl_quantile": Key(0.0, "number", "the cell whose CFL-1 step time.cfl multiplies, as a quantile of the "
                             "cells' CFL-1 steps: 0, the smallest cell (what the explicit transports need); with "
-                            "scheme.transport = implicit a larger one, e.g. 0.5 (the median cell), sets the step by "
-                            "the crowd's motion, not by the smallest triangle (docs/model.md, \"Steps by "
-                            "accuracy\")", low=0, high=1),
+                            "scheme.transport = implicit or implicit-godunov a larger one, e.g. 0.5 (the median "
+                            "cell), sets the step by the crowd's motion, not by the smallest triangle "
+                            "(docs/model.md, \"Steps by accuracy\")", low=0, high=1),
         "dt": Key(None, "number", "a fixed time step (s) instead of cfl", low=0, low_open=True),
         "stop_when_empty": Key(True, "bool", "stop once the crowd has left (scenes with exits)"),
         "empty_fraction": Key(1e-4, "number", "the crowd has left when less than this fraction of it is inside "
@@ -189,7 +190,11 @@ SCHEMA = {
     "scheme": {
         "transport": Key("upwind", "choice", "the prediction: order-0 upwind; limited linear reconstruction with "
                          "SSP-RK2 (muscl) or one Euler stage (compressive); backward-Euler upwind, positive at any "
-                         "time step (implicit; with a speed law linearly implicit, the speed of the step's start)",
+                         "time step (implicit; with a speed law linearly implicit, the speed of the step's start); "
+                         "the explicit fluxes (upwind; with a speed law the LWR fluxes, Godunov's for a unimodal "
+                         "flow) with their rates at the step's start, implicit only in the cells whose CFL-1 step the "
+                         "step exceeds: the explicit step within it, positive at any step (implicit-godunov; "
+                         "docs/model.md, \"Steps by accuracy\")",
                          registry.transports),
     },
     "exact": Key(None, "exact", "the exact solution of the case, the reference of femcrowd convergence: "

@@ -116,7 +116,7 @@ class MacroModel:
             if case["scheme"]["transport"] not in LWR_TRANSPORTS and not all(law.constant for law in laws):
                 raise InputError(case.file, "scheme.transport", case["scheme"]["transport"],
                                  "a speed law is transported with the order-0 LWR fluxes: use 'upwind' or "
-                                 "'implicit'")
+                                 "'implicit' (or 'implicit-godunov')")
             self.state = MacroState.initial(initial_densities(case, domain), len(domain.exit_names),
                                             [p.name for p in populations])
             self.solver = MacroSolver(domain, scene.boundary, [p.velocity for p in populations],

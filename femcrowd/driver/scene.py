@@ -12,6 +12,7 @@ import numpy as np
 
 from ..case import Case
 from ..errors import InputError
+from ..macro.transport import IMPLICIT
 from ..mesh import Boundary, Domain, load_domain
 from ..mesh.capacity import width_capacity
 from ..micro.sampling import overlaps, read_discs_csv, sample_discs
@@ -102,8 +103,8 @@ def door_schedule(case: Case, domain: Domain) -> dict:
 
 #: the transports that take a capacity on an interior door: those whose every stage is one explicit upwind step
 #: (the cut gives back to the cell behind the door at most what the step brought it, mesh/capacity.py) and the
-#: implicit one (the cap in its solve, macro/transport/capped.py)
-INTERIOR_CAPS = ("upwind", "compressive", "implicit")
+#: implicit ones (the cap in their solve, macro/transport/capped.py)
+INTERIOR_CAPS = ("upwind", "compressive", *IMPLICIT)
 
 
 def door_capacity(case: Case, domain: Domain) -> dict:
@@ -223,14 +224,14 @@ def read_positions(case: Case) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def check_transport_cfl(case: Case, transport) -> None:
     """Refuse a time step beyond the transport's own CFL number (max_cfl: 1 for upwind, beyond
     which densities can become negative; 0.5 for the higher-order transports, beyond which
-    they oscillate; 100 for the implicit one, positive at any step).
+    they oscillate; 100 for the implicit ones, positive at any step).
 
     transport: the transport object, or its class when the case has no time.dt."""
     name, limit, dt, cfl = case["scheme"]["transport"], transport.max_cfl, case["time"]["dt"], case["time"]["cfl"]
     if not 0 < cfl <= limit:
         raise InputError(case.file, "time.cfl", cfl, f"must be in (0, {limit:g}] with scheme.transport = {name!r}")
     quantile = case["time"]["cfl_quantile"]
-    if quantile and name != "implicit":
+    if quantile and name not in IMPLICIT:
         raise InputError(case.file, "time.cfl_quantile", quantile, f"must be 0 with scheme.transport = {name!r}: "
                          "an explicit step stays positive only within the CFL step of the smallest cell")
     if quantile and dt is not None:

@@ -28,7 +28,7 @@ from .reconstruction import CellMean, actual_velocity
 from .seen_density import SeenDensity
 from .speed_law import SpeedLaw
 from .state import MacroState
-from .transport import LWR_TRANSPORTS, TRANSPORTS
+from .transport import IMPLICIT, LWR_TRANSPORTS, TRANSPORTS
 from .transport.capped import capped_step
 from .transport.implicit import ImplicitLWRTransport
 from .transport.lwr import LWRTransport, joint_max_dt
@@ -67,7 +67,7 @@ class MacroSolver:
         self.laws = [None if law is None or law.constant else law for law in (laws or [None] * len(self.velocities))]
         #: False when every population has f(1) = 0 and the LWR step is explicit: the density stays <= 1
         #: without the projection
-        self.needs_projection = transport == "implicit" or any(law is None or law.saturates for law in self.laws)
+        self.needs_projection = transport in IMPLICIT or any(law is None or law.saturates for law in self.laws)
         self.transport_class = TRANSPORTS[transport]
         self.lwr_class = LWR_TRANSPORTS.get(transport, LWRTransport)
         self.cfl, self.fixed_dt, self.quantile = cfl, dt, quantile
@@ -86,9 +86,10 @@ class MacroSolver:
         versions = tuple(v.version(state, exits) for v in self.velocities)
         built = self._transports
         if built is None or built[0] is not exits or built[1] != versions:
-            # the cap of an interior door in the implicit solve needs its flows: f = 1 as the linearly implicit
-            # scheme (the backward-Euler matrix, solved in the order of the flow)
-            constant = SpeedLaw("constant") if self._caps_in_solve(exits) else None
+            # the cap of an interior door in the implicit solve needs its flows, and implicit-godunov is its own
+            # scheme for f = 1 too: f = 1 as the linearly implicit scheme (solved in the order of the flow)
+            every = self._caps_in_solve(exits) or self.lwr_class.every_law
+            constant = SpeedLaw("constant") if every else None
             schemes = [self.lwr_class(self.domain, exits, v.normal_on_facets(state, exits), law or constant)
                        if law is not None or constant is not None
                        else self.transport_class(self.domain, exits, v.normal_on_facets(state, exits),
@@ -100,7 +101,7 @@ class MacroSolver:
     def _caps_in_solve(self, exits) -> bool:
         """Whether the prediction has the caps of interior doors in its solve (the implicit transport,
         transport/capped.py); the other transports cut after the step (mesh/capacity.py)."""
-        return (self.lwr_class is ImplicitLWRTransport and exits.caps is not None
+        return (issubclass(self.lwr_class, ImplicitLWRTransport) and exits.caps is not None
                 and bool(np.any(exits.caps.receiver >= 0)))
 
     def projection(self, exits) -> Projection:

@@ -108,19 +108,30 @@ class ImplicitLWRTransport(LWRTransport):
         seen = np.append(rho if total is None else total, 0.0)
         return self.law(seen[self.receiver]) * self.rate
 
-    def solve(self, rho, dt, speed) -> np.ndarray:
-        """rho~ of (|K| / tau + out_K) rho~_K - sum_{L -> K} speed_e rho~_L = |K| rho_K / tau, out_K the sum of the
-        speeds leaving K, in the order of the flow."""
-        n = len(rho)
-        rho_t = self.flow_order.solve(self.domain.area / dt + np.bincount(self.sender, speed, n), -speed[self.inner],
-                                      rho * self.domain.area / dt)
+    def share(self, dt, speed) -> np.ndarray:
+        """omega_K, the implicit share of the fluxes out of each cell K: 1, backward Euler in every cell."""
+        return np.ones(self.domain.ncells)
+
+    def solve(self, rho, dt, speed, share) -> np.ndarray:
+        """rho~ of the step whose flow e from K carries speed_e (omega_K rho~_K + (1 - omega_K) rho_K), omega the
+        `share` of each cell:
+
+            (|K| / tau + omega_K out_K) rho~_K - sum_{L -> K} omega_L speed_e rho~_L
+                = (|K| / tau - (1 - omega_K) out_K) rho_K + sum_{L -> K} (1 - omega_L) speed_e rho_L,
+
+        out_K the sum of the speeds leaving K, in the order of the flow."""
+        n, area, inner = len(rho), self.domain.area, self.inner
+        out = np.bincount(self.sender, speed, n)
+        sender, explicit = self.sender[inner], 1.0 - share
+        b = rho * area / dt + np.bincount(self.receiver[inner], speed[inner] * (explicit * rho)[sender], n)
+        rho_t = self.flow_order.solve(area / dt + share * out, -speed[inner] * share[sender], b - explicit * out * rho)
         np.maximum(rho_t, 0.0, out=rho_t)   # the inverse is >= 0: only round-off is clipped
         return rho_t
 
-    def prediction(self, rho_t, dt, speed) -> Prediction:
-        """The Prediction of rho~ carried by these speeds: the mass out through each exit and across each capped
-        facet."""
-        flux = rho_t[self.sender] * speed
+    def prediction(self, rho, rho_t, dt, speed, share) -> Prediction:
+        """The Prediction of rho~ (from rho) carried by these speeds: the mass out through each exit and across
+        each capped facet."""
+        flux = carried(rho, rho_t, share)[self.sender] * speed
         evacuated = dt * np.bincount(self.exit_of_flow, flux[self.exit_flows], self.n_exits)
         through = dt * np.bincount(self.capped_position, self.flow_sign[self.capped_flows] * flux[self.capped_flows],
                                    len(self.capped))
@@ -130,7 +141,8 @@ class ImplicitLWRTransport(LWRTransport):
         """rho~ of this population, the mass that left through each exit during dt and the net mass through the
         capped door facets (the fluxes of rho~ with the speed of t^n)."""
         speed = self.speeds(rho, total)
-        return self.prediction(self.solve(rho, dt, speed), dt, speed)
+        share = self.share(dt, speed)
+        return self.prediction(rho, self.solve(rho, dt, speed, share), dt, speed, share)
 
     def facet_flux(self, rho, dt, total=None, facets=slice(None), predicted=None):
         """The mass each facet (of `facets`) carries f2t[0] -> f2t[1] in the step of rho by dt: the fluxes of rho~
@@ -138,3 +150,63 @@ class ImplicitLWRTransport(LWRTransport):
         rho~ as `predicted`)."""
         rho_t = self.step(rho, dt, total).rho if predicted is None else predicted
         return super().facet_flux(rho_t, dt, rho if total is None else total, facets)
+
+
+class ImplicitGodunovTransport(ImplicitLWRTransport):
+    """``scheme.transport = "implicit-godunov"``: the explicit LWR fluxes made implicit only where the step needs it.
+
+    Rates: the rates of the explicit scheme's flux frozen at t^n. Across a facet from K to L population i carries
+
+        q_e a_e y_i,K,    a_e = F(rho^n_K, rho^n_L) / rho^n_K,
+
+    F the flux of the explicit LWR scheme (lwr.py: Godunov's min(D(rho_K), S(rho_L)) for a unimodal g = r f(r),
+    rho_K f(rho_L) otherwise) of the total density, a_e its limit f(0) at rho^n_K = 0 (0 when S(rho^n_L) = 0).
+
+    Density carried: y_K = omega_K rho~_K + (1 - omega_K) rho^n_K, omega_K = max(0, 1 - |K| / (tau out_K)), out_K
+    the sum of the rates q_e a_e leaving K: explicit (y = rho^n, the explicit scheme's flux) in every cell whose
+    CFL-1 step the step does not exceed, implicit only as much as keeps the explicit part's coefficient
+    |K| / tau - (1 - omega_K) out_K >= 0 (a cell-wise theta scheme, as the mixed explicit implicit schemes of
+    small cells, May, Berger 2017, J. Sci. Comput.; in one dimension its numerical diffusion is
+    |1 - c_K| |v| h / 2 at the cell's Courant number c_K, against (1 + c_K) |v| h / 2 for backward Euler).
+
+    The system (solve) has the pattern of ImplicitLWRTransport's with the rates omega_K q_e a_e >= 0 and a
+    right-hand side >= 0: an M-matrix, so rho~ >= 0 and each population's mass is kept at any step; the same order
+    of the flow and the same caps in the solve (capped.py). As tau -> 0 (omega = 0 once tau is within every cell's
+    CFL-1 step) the step is the explicit scheme's. With several populations a_e is the same for all (the total's)
+    and omega_K is each one's own. The paper's model (f = 1) takes it too: the upwind scheme, implicit only in the
+    cells whose CFL-1 step the step exceeds."""
+
+    every_law = True
+
+    def speeds(self, rho, total=None) -> np.ndarray:
+        """The rate of each flow, q_e F(rho^n_K, rho^n_L) / rho^n_K (of the total density with several
+        populations)."""
+        if not self.godunov:
+            return super().speeds(rho, total)
+        seen = np.append(rho if total is None else total, 0.0)
+        sender = seen[self.sender]
+        supply = self.law.supply(seen[self.receiver])
+        flux = np.minimum(self.law.demand(sender), supply)
+        limit = np.where(supply > 0, self.law(np.zeros(1)), 0.0)   # the rate of an empty sender
+        return np.divide(flux, sender, out=limit, where=sender > 0) * self.rate
+
+    def share(self, dt, speed) -> np.ndarray:
+        """omega_K = max(0, 1 - |K| / (tau out_K)): 0 where the step is within the cell's CFL-1 step."""
+        out = np.bincount(self.sender, speed, self.domain.ncells)
+        with np.errstate(divide="ignore"):
+            return np.maximum(1.0 - self.domain.area / (dt * out), 0.0)
+
+    def facet_flux(self, rho, dt, total=None, facets=slice(None), predicted=None):
+        """The mass each facet (of `facets`) carries f2t[0] -> f2t[1] in the step of rho by dt: the frozen rates
+        times the density carried (it solves the step again unless given rho~ as `predicted`)."""
+        speed = self.speeds(rho, total)
+        share = self.share(dt, speed)
+        rho_t = self.solve(rho, dt, speed, share) if predicted is None else predicted
+        which, position, n, inverse = self.across(facets)
+        flux = speed[which] * carried(rho, rho_t, share)[self.sender[which]]
+        return dt * np.bincount(position, self.flow_sign[which] * flux, n)[inverse]
+
+
+def carried(rho, rho_t, share) -> np.ndarray:
+    """The density the fluxes out of each cell carry: omega rho~ + (1 - omega) rho."""
+    return share * rho_t + (1.0 - share) * rho

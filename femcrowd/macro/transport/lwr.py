@@ -28,6 +28,9 @@ from .upwind import Prediction, UpwindTransport
 class LWRTransport(UpwindTransport):
     """The LWR fluxes of one population with speed law ``law`` (femcrowd.macro.speed_law.SpeedLaw)."""
 
+    #: whether a population without a speed law takes this scheme too (with f = 1), not the transport's own
+    every_law = False
+
     def __init__(self, domain, exits, normal_velocity, law):
         super().__init__(domain, exits, normal_velocity)
         self.law = law
@@ -91,6 +94,13 @@ class LWRTransport(UpwindTransport):
     def facet_flux(self, rho, dt, total=None, facets=slice(None)):
         """The mass each facet (of `facets`) carries f2t[0] -> f2t[1] in the step of rho by dt (measurement lines);
         only the flows across these facets are evaluated."""
+        which, position, n, inverse = self.across(facets)
+        moved = np.bincount(position, self.flow_sign[which] * self.flows(rho, total, which), n)
+        return dt * moved[inverse]
+
+    def across(self, facets):
+        """The flows across `facets` (which), the position of each one's facet among the n distinct facets, and
+        the distinct facet of each of `facets` (inverse); kept per set of facets."""
         every = np.arange(len(self.out0))[facets]
         key = every.tobytes()
         if key not in self._flows_across:
@@ -99,9 +109,7 @@ class LWRTransport(UpwindTransport):
             position[unique] = np.arange(len(unique))
             which = np.flatnonzero(position[self.flow_facet] >= 0)
             self._flows_across[key] = which, position[self.flow_facet[which]], len(unique), inverse
-        which, position, n, inverse = self._flows_across[key]
-        moved = np.bincount(position, self.flow_sign[which] * self.flows(rho, total, which), n)
-        return dt * moved[inverse]
+        return self._flows_across[key]
 
 
 def joint_max_dt(domain, schemes) -> float:
