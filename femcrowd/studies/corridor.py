@@ -28,13 +28,13 @@ from ..mesh.floorplan import build_mesh
 from ..timer import Stopwatch
 from .execute import execute
 from .validation import (
-    SETTINGS,
     Task,
     check_settings,
     converged,
     experiments,
     flow,
     groups,
+    label,
     people_of,
     queue,
     scene_tasks,
@@ -191,15 +191,15 @@ def _number(value, digits: int) -> str:
     return "n/a" if np.isnan(value) else f"{value:.{digits}f}"
 
 
-def markdown(table) -> str:
+def markdown(table, overrides=()) -> str:
     """The table of docs/validation.md, "An independent check": the model's figures and their ratios to the
-    experiment's (n/a: no figure found)."""
+    experiment's (n/a: no figure found; overrides: the study's --set texts, named with each setting)."""
     known = runs()
     lines = ["| setting | exit (m) | exit flow (persons/s) | / experiment | last out (s) | / experiment | "
              "last out: meshes (change) or seeds | density in front (persons/m^2) | / experiment | all out |",
              "|---|---|---|---|---|---|---|---|---|---|"]
     for r in table:
-        lines.append(f"| {SETTINGS[r['setting']].label} | {r['width']:g} | {_number(r['flow'], 2)} | "
+        lines.append(f"| {label(r['setting'], overrides)} | {r['width']:g} | {_number(r['flow'], 2)} | "
                      f"{_number(r['flow_ratio'], 2)} | {_number(r['last_out'], 1)} | "
                      f"{_number(r['last_out_ratio'], 2)} | {r['last_out_runs']} | {_number(r['front_density'], 2)} | "
                      f"{_number(r['front_density_ratio'], 2)} | {r['all_out']} |")
@@ -219,6 +219,6 @@ def check(out, settings, widths, levels: int = 3, seeds: int = 5, overrides=(), 
     rows = execute(run_task, tasks, serial, scheduler, echo=echo, quiet=quiet)
     write_rows(root / "corridor.csv", rows)
     table = summarise(rows)
-    text = markdown(table)
+    text = markdown(table, overrides)
     write_text(root / "corridor.md", text, sync=True)
     return table, text, root

@@ -25,7 +25,7 @@ from ..macro.speed_law import PM_AREA, predtechenskii
 from ..timer import Stopwatch
 from .execute import execute
 from .rimea import weidmann_speed
-from .validation import SETTINGS
+from .validation import SETTINGS, label
 
 #: the corridor of RiMEA test 4
 CORRIDOR = shipped.cases("rimea") / "test04-fundamental-diagram"
@@ -116,14 +116,14 @@ def _percent(x) -> str:
     return "-" if np.isnan(x) else f"{100 * x:.2f} %"
 
 
-def markdown(table) -> str:
-    """The table of docs/validation.md."""
+def markdown(table, overrides=()) -> str:
+    """The table of docs/validation.md (overrides: the study's --set texts, named with each setting)."""
     lines = ["| setting | density (persons/m^2) | speed (m/s): femcrowd / published | specific flow (persons/(m s)): "
              "femcrowd / published | difference (speed, flow) | change of the speed, last two meshes | within "
              f"{100 * TOLERANCE:g} % |", "|---|---|---|---|---|---|---|"]
-    lines += [f"| {SETTINGS[r['setting']].label} | {r['density']:g} | {r['speed']:.3f} / {r['published_speed']:.3f} | "
-              f"{r['specific_flow']:.3f} / {r['published_flow']:.3f} | {100 * r['speed_error']:+.1f} %, "
-              f"{100 * r['flow_error']:+.1f} % | {_percent(r['change'])} | "
+    lines += [f"| {label(r['setting'], overrides)} | {r['density']:g} | {r['speed']:.3f} / "
+              f"{r['published_speed']:.3f} | {r['specific_flow']:.3f} / {r['published_flow']:.3f} | "
+              f"{100 * r['speed_error']:+.1f} %, {100 * r['flow_error']:+.1f} % | {_percent(r['change'])} | "
               f"{'yes' if r['within'] else 'no'} |" for r in table]
     return "\n".join(lines) + "\n"
 
@@ -139,6 +139,6 @@ def diagram(out, settings=None, densities=DENSITIES, levels: int = 3, overrides=
         writer.writeheader()
         writer.writerows(rows)
     table = summarise(rows)
-    text = markdown(table)
+    text = markdown(table, overrides)
     write_text(root / "diagram.md", text, sync=True)
     return table, text, root

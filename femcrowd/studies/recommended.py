@@ -30,7 +30,9 @@
 - The discs (``model.type = "micro"``, which has no door capacity): Weidmann's law and PUSH from the density
   each disc sees, the decelerating strategy of Maury et al. (2011) and an arch-breaking fluctuation
   FLUCTUATION (m/s, docs/micro.md): the smallest of those tried (0.5, 1.0) that lets every disc of
-  radius 0.2 m through the 0.5 m and 1 m bottlenecks in each of five seeds.
+  radius 0.2 m through the 0.5 m and 1 m bottlenecks in each of five seeds. Not LAW: without a door capacity
+  the discs overshoot the narrow doors' experiments with it (docs/validation.md, "The discs with Predtechenskii
+  and Milinskii's law").
 """
 
 from ..macro.speed_law import PM_SPEED

@@ -114,6 +114,12 @@ SETTINGS = {
 }
 
 
+def label(name: str, overrides=()) -> str:
+    """A setting's label in tables and plots, naming the study's --set keys (applied after the setting's own, so
+    the label of the setting alone would no longer say what ran)."""
+    return SETTINGS[name].label + (f"; --set {' '.join(overrides)}" if overrides else "")
+
+
 @dataclass
 class Task:
     """One run: a setting at a width, on a mesh level (macro) or with a seed (discs)."""
@@ -276,11 +282,11 @@ def experiments(kind: str | None = None) -> list:
     return rows
 
 
-def markdown(table) -> str:
-    """The table of docs/validation.md."""
+def markdown(table, overrides=()) -> str:
+    """The table of docs/validation.md (overrides: the study's --set texts, named with each setting)."""
     lines = ["| setting | width (m) | specific flow (persons/(m s)) | meshes (change) or seeds | all out |",
              "|---|---|---|---|---|"]
-    lines += [f"| {SETTINGS[r['setting']].label} | {r['width']:g} | {r['specific_flow']:.2f} | {r['runs']} | "
+    lines += [f"| {label(r['setting'], overrides)} | {r['width']:g} | {r['specific_flow']:.2f} | {r['runs']} | "
               f"{r['all_out']} |" for r in table]
     return "\n".join(lines) + "\n"
 
@@ -294,8 +300,8 @@ def validate(out, settings=tuple(SETTINGS), widths=WIDTHS, levels: int = 3, seed
     rows = execute(run_task, tasks, serial, scheduler, echo=echo, quiet=quiet)
     write_rows(root / "validation.csv", rows)
     table = summarise(rows)
-    text = markdown(table)
+    text = markdown(table, overrides)
     write_text(root / "validation.md", text, sync=True)
-    flows_plot(rows, table, {name: setting.label for name, setting in SETTINGS.items()}, experiments(),
+    flows_plot(rows, table, {name: label(name, overrides) for name in SETTINGS}, experiments(),
                root / "validation.png")
     return table, text, root

@@ -92,6 +92,8 @@ def test_the_table_takes_the_finest_mesh_or_the_seeds_mean_and_divides_by_the_ex
     text = corridor.markdown(table)
     assert "| 0.7 | 1.30 | 0.75 | 98.0 | 1.15 | 110.000 / 100.000 / 98.000 (2.0 %) | 5.00 | n/a | 3/3 |" in text
     assert "0.7 m: 148 persons, last out 85.44 s" in text
+    named = corridor.markdown(table, ("micro.fluctuation=1",))   # the study's --set keys, named with each setting
+    assert f"| {validation.SETTINGS['discs'].label}; --set micro.fluctuation=1 | 0.7 | 1.70 |" in named
 
 
 @pytest.mark.parametrize("args, message", [

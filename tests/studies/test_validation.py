@@ -66,6 +66,18 @@ def test_validate_writes_the_table_the_runs_and_the_plot(tmp_path):
     assert len((out / "validation.csv").read_text().splitlines()) == 3   # a header and two runs
 
 
+def test_the_table_names_the_set_keys_with_each_setting(tmp_path):
+    """--set changes every run after the setting's own keys, so validation.md names them with the setting: the
+    discs run with Predtechenskii and Milinskii's law (docs/validation.md) no longer read as Weidmann's."""
+    out = tmp_path / "validation"
+    result = CliRunner().invoke(main, ["validate", "--settings", "capacity", "--widths", "1.0", "--levels", "1",
+                                       "--serial", "--set", "time.end=2", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    assert "| macro, constant speed, door capacity 1.9 /(m s); --set time.end=2 | 1 |" in (
+        out / "validation.md").read_text()
+    assert validation.label("discs") == validation.SETTINGS["discs"].label   # no --set: the label as it was
+
+
 def test_every_experiment_has_a_source_and_says_how_it_was_read():
     rows = validation.experiments()
     assert len(rows) > 20 and all(r["source"] and r["where"] and r["note"] for r in rows)
@@ -122,6 +134,8 @@ def test_the_diagram_of_predtechenskii_s_law_is_the_published_one(tmp_path):
     assert row["speed"] == pytest.approx(47 / 60, rel=1e-6) and row["published_speed"] == pytest.approx(47 / 60)
     assert row["specific_flow"] == pytest.approx(14.1 / 6, rel=1e-5) and row["within"]
     assert (tmp_path / "d" / "diagram.md").read_text() == text and "| 3 | 0.783 / 0.783 |" in text
+    label = validation.SETTINGS["recommended"].label
+    assert f"| {label}; --set velocity.walls=paper | 3 |" in diagram.markdown(table, ("velocity.walls=paper",))
     result = CliRunner().invoke(main, ["validate", "--diagram", "--settings", "capacity", "--out", str(tmp_path / "e")])
     assert result.exit_code == 2 and "no published diagram" in result.output
 
