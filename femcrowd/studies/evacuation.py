@@ -96,7 +96,8 @@ def study(case_dir, levels: int, out=None, overrides=(), cfls=(), set_values=(),
           scheduler: str | None = None, force: bool = False, echo=None, quiet: bool = True,
           settings: str = "case") -> tuple[list, str, object]:
     """Run the refinement series and write evacuation.csv and evacuation.md; (rows, report text, directory).
-    settings: "case" or "recommended" (studies/settings.py: the recommended settings on the case, before overrides).
+    settings: "case", "recommended" or "fast" (studies/settings.py: the recommended settings on the case, with the
+    recommended or the fast step, before overrides).
 
     A level that fails or is not reached (Ctrl-C) has no times (nan); the others are tabulated, and StudyFailed
     or Interrupted then says which did not finish, as in a convergence study."""
