@@ -15,7 +15,8 @@ has a quarter of its triangles, K = 0.5 four times as many (the evacuation time'
 femcrowd runs the macro model with the recommended settings of femcrowd/studies/recommended.py (MACRO:
 Predtechenskii and Milinskii's law, slip walls, STEP; their free speed FREE_SPEED, 1.67 m/s; door_capacity: the
 capacity of its width on every exit; `--implicit CFL`: the linearly implicit prediction at CFL times the median
-cell's step instead of STEP), as `femcrowd run` does (history.csv, a frame every 10 s); JuPedSim
+cell's step instead of STEP; `--fast`: the named fast step FAST_STEP, implicit-godunov at 1.5 times the median
+cell's step, instead of STEP), as `femcrowd run` does (history.csv, a frame every 10 s); JuPedSim
 its default collision-free speed model (Tordeux et al. 2016) at dt = 0.01 s, agents of radius 0.2 m with
 the same desired speed FREE_SPEED, placed at random (`--seed`) in the crowd's area, each heading for the exit
 nearest to it and taken out when it reaches a strip 0.5 m deep inside that exit. Wall time: the set-up and the
@@ -31,6 +32,7 @@ JuPedSim is an optional benchmark dependency: pip install -e '.[peer]' (or pip i
     python benchmarks/peer.py --scenes hall --people 100 1000 --repeat 3
     python benchmarks/peer.py --scenes large-hall --people 10000 --only femcrowd --implicit 4
     python benchmarks/peer.py --scenes hall --only femcrowd --implicit 1 --coarsen 2
+    python benchmarks/peer.py --scenes hall --people 100 1000 --coarsen 2 --fast --repeat 3
 """
 
 import argparse
@@ -109,19 +111,20 @@ def scene(name: str, people: int, coarsen: float = 1.0) -> tuple:
     return directory, plan, box, people
 
 
-def run_femcrowd(directory: Path, implicit: float = 0.0) -> dict:
+def run_femcrowd(directory: Path, implicit: float = 0.0, fast: bool = False) -> dict:
     """The macro model with the recommended settings, as `femcrowd run` runs it; implicit > 0: the linearly implicit
-    prediction at that cfl on the median cell's step instead of the recommended STEP."""
+    prediction at that cfl on the median cell's step instead of the recommended STEP; fast: FAST_STEP instead."""
     import tempfile
 
     import femcrowd
-    from femcrowd.studies.recommended import FREE_SPEED, MACRO, door_capacity
+    from femcrowd.studies.recommended import FAST, FREE_SPEED, MACRO, door_capacity
     from femcrowd.studies.validation import flow
 
     tic, cpu = time.perf_counter(), time.process_time()
     exits = femcrowd.load_case(directory)["boundary"]["exits"]
     step = {} if not implicit else {"scheme.transport": "implicit", "time.cfl_quantile": 0.5, "time.cfl": implicit}
-    case = femcrowd.load_case(directory, {**MACRO, "velocity.speed": FREE_SPEED, **step, **door_capacity(exits)})
+    settings = FAST if fast else MACRO
+    case = femcrowd.load_case(directory, {**settings, "velocity.speed": FREE_SPEED, **step, **door_capacity(exits)})
     with tempfile.TemporaryDirectory() as tmp:
         result = femcrowd.run(case, out=Path(tmp) / "out")
     wall, cpu = time.perf_counter() - tic, time.process_time() - cpu
@@ -178,9 +181,9 @@ def _strip(area, a, b, depth: float = 0.5):
     return shapely.Polygon([a, b, b + depth * normal, a + depth * normal])
 
 
-def worker(tool: str, name: str, people: int, seed: int, implicit: float, coarsen: float) -> None:
+def worker(tool: str, name: str, people: int, seed: int, implicit: float, coarsen: float, fast: bool) -> None:
     directory, plan, box, people = scene(name, people, coarsen)
-    figures = run_femcrowd(directory, implicit) if tool == "femcrowd" else run_jupedsim(plan, box, people, seed)
+    figures = run_femcrowd(directory, implicit, fast) if tool == "femcrowd" else run_jupedsim(plan, box, people, seed)
     print(json.dumps({k: float(v) for k, v in figures.items()}))
 
 
@@ -191,15 +194,18 @@ def main():
     parser.add_argument("--only", choices=["femcrowd", "jupedsim"], help="run one of the two programs")
     parser.add_argument("--repeat", type=int, default=1, help="rounds of the two programs")
     parser.add_argument("--seed", type=int, default=1, help="JuPedSim's placement of the agents")
-    parser.add_argument("--implicit", type=float, default=0.0, metavar="CFL",
-                        help="femcrowd with the implicit prediction at CFL x the median cell's step, not STEP")
+    step = parser.add_mutually_exclusive_group()
+    step.add_argument("--implicit", type=float, default=0.0, metavar="CFL",
+                      help="femcrowd with the implicit prediction at CFL x the median cell's step, not STEP")
+    step.add_argument("--fast", action="store_true",
+                      help="femcrowd with the fast step FAST_STEP (implicit-godunov, cfl 1.5 on the median cell)")
     parser.add_argument("--coarsen", type=float, default=1.0, metavar="K",
                         help="the halls' cells K times the benchmark's (0.35 m, 0.1 m at the exits)")
-    parser.add_argument("--worker", nargs=6, help=argparse.SUPPRESS)
+    parser.add_argument("--worker", nargs=7, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
-        tool, name, people, seed, implicit, coarsen = args.worker
-        return worker(tool, name, int(people), int(seed), float(implicit), float(coarsen))
+        tool, name, people, seed, implicit, coarsen, fast = args.worker
+        return worker(tool, name, int(people), int(seed), float(implicit), float(coarsen), fast == "1")
     tools = [("femcrowd", None, "femcrowd"), ("JuPedSim", None, "jupedsim")]
     tools = [t for t in tools if args.only in (None, t[2])]
     if args.only != "femcrowd" and importlib.util.find_spec("jupedsim") is None:
@@ -207,7 +213,8 @@ def main():
         return 2
     env = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
     runs = [(name, people) for name in args.scenes for people in (args.people if name in HALLS else [90])]
-    step = f"the implicit prediction at cfl {args.implicit:g} on the median cell" if args.implicit else "STEP"
+    step = (f"the implicit prediction at cfl {args.implicit:g} on the median cell" if args.implicit
+            else "FAST_STEP" if args.fast else "STEP")
     print(f"medians of {args.repeat} alternated rounds; femcrowd: macro, recommended settings ({step}); JuPedSim "
           f"{_version() if args.only != 'femcrowd' else '(not run)'}: collision-free speed model, dt {DT} s, "
           f"seed {args.seed}")
@@ -216,7 +223,7 @@ def main():
     print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     for name, people in runs:
         scene(name, people, args.coarsen)   # meshed once, before anything is timed
-        worker_args = (name, people, args.seed, args.implicit, args.coarsen)
+        worker_args = (name, people, args.seed, args.implicit, args.coarsen, int(args.fast))
         result = rounds(tools, args.repeat, lambda code, tool: in_process(__file__, (tool, *worker_args), code, env))
         missing = [{"wall": np.nan, "cpu": np.nan, "evacuation": np.nan, "flow": np.nan, "steps": np.nan,
                     "cells": np.nan}]
