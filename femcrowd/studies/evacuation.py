@@ -12,9 +12,8 @@ observed order
 and, where p_k > 0 and d_{k-1}, d_k have the same sign, Richardson's estimate of the converged time
 t_k + d_k / ((h_{k-1} / h_k)^p_k - 1) (Richardson 1911; the generalised form of Roache 1998, ch. 5). Where the
 sign changes the convergence is oscillatory and the estimate is not defined (Celik et al. 2008, J. Fluids Eng.
-130, 078001): it would
-extrapolate along d_k, which the next level may reverse again. evacuation.csv also gives each level's flow,
-persons per second while 20 to 80 % of the crowd are out (validation.flow).
+130, 078001): it would extrapolate along d_k, which the next level may reverse again. evacuation.csv also gives
+each level's flow, persons per second while 20 to 80 % of the crowd are out (validation.flow).
 """
 
 import csv
