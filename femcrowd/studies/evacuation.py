@@ -9,9 +9,11 @@ observed order
 
     p_k = log(|d_{k-1}| / |d_k|) / log(h_{k-1} / h_k),
 
-and, where p_k > 0, Richardson's estimate of the converged time t_k + d_k / ((h_{k-1} / h_k)^p_k - 1)
-(Richardson 1911; the generalised form of Roache 1998, ch. 5). evacuation.csv also gives each level's flow,
-persons per second while 20 to 80 % of the crowd are out (validation.flow).
+and, where p_k > 0 and d_{k-1}, d_k have the same sign, Richardson's estimate of the converged time
+t_k + d_k / ((h_{k-1} / h_k)^p_k - 1) (Richardson 1911; the generalised form of Roache 1998, ch. 5). Where the
+sign changes the convergence is oscillatory and the estimate is not defined (Celik et al. 2008, J. Fluids Eng.
+130, 078001): it would extrapolate along d_k, which the next level may reverse again. evacuation.csv also gives
+each level's flow, persons per second while 20 to 80 % of the crowd are out (validation.flow).
 """
 
 import csv
@@ -87,7 +89,7 @@ def observed(values, h) -> tuple[list, list, list]:
         d0, d1, ratio = abs(diffs[k - 1]), abs(diffs[k]), h[k - 1] / h[k]
         if d0 > 0 and d1 > 0 and ratio > 1:
             orders[k] = math.log(d0 / d1) / math.log(ratio)
-            if orders[k] > 0:
+            if orders[k] > 0 and diffs[k - 1] * diffs[k] > 0:
                 limits[k] = values[k] + diffs[k] / (ratio ** orders[k] - 1)
     return diffs, orders, limits
 

@@ -10,6 +10,7 @@ import pyvista
 
 from femcrowd import load_case, run
 from femcrowd.mesh.distance import Eikonal
+from femcrowd.studies.settings import recommended
 
 from ..support import CASES, assert_phases_within_wall
 
@@ -25,6 +26,13 @@ def test_the_shipped_cases_are_there():
     assert {"room", "room-obstacles", "two-exits", "corridor-wall", "radial", "saturated-exit",
             "narrow-door"} <= set(MACRO)
     assert "narrow-door-micro" in SHIPPED  # micro: tests/driver/test_micro_runs.py
+
+
+@pytest.mark.parametrize("name", [name for name in MACRO if "recommended settings" in load_case(CASES / name)["title"]])
+def test_a_case_titled_with_the_recommended_settings_has_them(name):
+    """The recommended settings (studies/settings.py, what `femcrowd new` writes) put on a shipped case whose title
+    names them change none of its keys (cases/room-column and cases/bottleneck had Weidmann's law with a push)."""
+    assert load_case(CASES / name, recommended(CASES / name)).config == load_case(CASES / name).config
 
 
 @pytest.mark.parametrize("name", MACRO)

@@ -20,7 +20,8 @@ from femcrowd.studies.extensions import lwr_riemann, observed_order
 
 from ..support import CASES, unit_square
 
-#: the recommended settings (femcrowd/studies/recommended.py, all in cases/bottleneck) at large implicit steps
+#: cases/bottleneck (Weidmann's law, push 0.2, a door capacity: the variant weidmann-push of
+#: femcrowd/studies/recommended.py with the paper's walls) at large implicit steps
 LARGE_STEPS = ["scheme.transport=implicit", "time.cfl_quantile=0.5", "time.cfl=4"]
 
 
@@ -63,8 +64,8 @@ def test_the_step_conserves_each_population_and_stays_positive():
         assert not np.any(scheme.flows(step.rho, total)[scheme.receiver == 0])
 
 
-def test_the_recommended_settings_keep_the_invariants_at_large_steps():
-    """cases/bottleneck (Weidmann, push 0.2, slip walls, door capacity) at cfl 4 on the median cell: the mass plus
+def test_weidmann_with_a_push_keeps_the_invariants_at_large_steps():
+    """cases/bottleneck (Weidmann, push 0.2, door capacity) at cfl 4 on the median cell: the mass plus
     the evacuated is the initial mass to round-off, 0 <= rho <= 1 after the projection, p >= 0, p (1 - rho) = 0;
     the steps are larger than the explicit LWR scheme's."""
     model = Simulation(load_case(CASES / "bottleneck", LARGE_STEPS)).model

@@ -42,6 +42,16 @@ def test_orders_and_the_richardson_estimate_of_a_first_order_series():
     assert math.isnan(orders[1]) and math.isnan(limits[1])
 
 
+def test_no_richardson_estimate_where_the_differences_change_sign():
+    """Oscillatory convergence (d = +1, -0.5, +0.2): the orders are read, the estimate is not (cases/two-exits,
+    all but 1e-4 out: -0.041 s, then +0.040 s, order 0.04, would extrapolate 1.4 s past the finest level)."""
+    h = [0.4, 0.2, 0.1, 0.05]
+    diffs, orders, limits = observed([10.0, 11.0, 10.5, 10.7], h)
+    assert diffs[1:] == pytest.approx([1.0, -0.5, 0.2])
+    assert orders[2:] == pytest.approx([1.0, math.log2(2.5)])
+    assert all(math.isnan(t) for t in limits)
+
+
 def saturated_times(k, s0, shares):
     """Exact solution 3: the block empties as s(t) = (s0 + 2/k) exp(-k t / 2) - 2/k; the share q is out when
     s = (1 - q) s0."""
