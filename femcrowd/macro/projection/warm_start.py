@@ -19,6 +19,7 @@ import numpy as np
 
 from ...linalg.cholmod import solve_spd
 from ...linalg.envelope import BORDER_MAX
+from ...linalg.rows import lower_block, matvec
 from ...linalg.rows import rows as gather
 from .sets import adjacency_table, product
 
@@ -153,11 +154,12 @@ class WarmStart:
             phi[flips] = 0.0  # the cells that leave; those that join start from 0
             touched = self.sets.distinct(np.concatenate([touched, flips]))
             band = self._band(touched[inside[touched] != in_G[touched]], inside)
-            phi[band] += solve_spd(A[band][:, band], -(b[band] + A[band] @ phi),
+            rows = gather(A, band)
+            phi[band] += solve_spd(lower_block(rows, band), len(band), -(b[band] + matvec(rows, phi)),
                                    self.solver.nested_dissection()[band])
             info["band_solves"] += 1
-            region = self.sets.distinct(A[band].indices)  # where w and the signs of phi can have changed
-            w = b[region] + A[region] @ phi
+            region = self.sets.distinct(rows.indices)  # where w and the signs of phi can have changed
+            w = b[region] + matvec(gather(A, region), phi)
         return touched
 
     def _band(self, changed, inside):
