@@ -102,7 +102,6 @@ class WarmStart:
         inside = in_G.copy()  # S as a mask
         inside[strict] = True
         phi = np.zeros(n)
-        # touched: every cell that has been in S outside G, or in G outside S
         self._alternate(b, phi, inside, in_G, strict, info, PREDICTOR_ROUNDS + 1, MAX_LOCAL)
         S = np.flatnonzero(inside)
         return S, phi[S]
@@ -141,8 +140,9 @@ class WarmStart:
 
     def _local(self, b, phi, inside, in_G, touched, info, iterations):
         """Local active-set iterations S <- {phi >= 0 on S} U {w < 0 off S} (S the mask `inside`, updated, phi
-        updated), each followed by a solve on the band of the cells `touched` so far whose membership differs from
-        in_G; returns the cells touched."""
+        updated), each followed by a solve on the band of the cells touched so far (every cell that has been in S
+        outside G, or in G outside S: `touched` and the flips) whose membership differs from in_G; returns the cells
+        touched."""
         A, threshold = self.A, -self.tol * self.area
         region, w = slice(None), b + A @ phi
         for _ in range(iterations):
