@@ -173,15 +173,17 @@ def one_size(target, steps, capacity=None):
 
 
 def counted_projections():
-    """The projection counters of every macro step of this process (MacroStep.projection), appended to the list
-    returned: MacroSolver.step is wrapped, the run itself is unchanged."""
+    """The projection counters of every macro step of this process (MacroStep.projection) and the CPU seconds of
+    the step (step_cpu: transport and projection), appended to the list returned: MacroSolver.step is wrapped, the
+    run itself is unchanged."""
     from femcrowd.macro import MacroSolver
 
     steps, step = [], MacroSolver.step
 
     def counted(self, *args, **kwargs):
+        cpu = time.process_time()
         result = step(self, *args, **kwargs)
-        steps.append(result.projection)
+        steps.append({**result.projection, "step_cpu": time.process_time() - cpu})
         return result
 
     MacroSolver.step = counted
@@ -191,14 +193,15 @@ def counted_projections():
 def projection_phases(steps):
     """Sums and per-step means of the projection counters, split at the step of the largest saturated set: the
     queue growing (its front running into the oncoming crowd) and the queue draining."""
-    keys = ("iterations", "factorizations", "band_solves", "rebuilds", "predict", "setup", "solve", "active_set")
+    keys = ("iterations", "factorizations", "band_solves", "rebuilds", "predict", "setup", "solve", "active_set",
+            "step_cpu")
     peak = int(np.argmax([s["unknowns"] for s in steps])) + 1 if steps else 0
     out = {}
     for name, part in (("growing", steps[:peak]), ("draining", steps[peak:]), ("all", steps)):
         sums = {key: float(sum(s[key] for s in part)) for key in keys}
         out[name] = {"steps": len(part), "max_unknowns": max((s["unknowns"] for s in part), default=0),
                      **{f"{key} per step": sums[key] / max(len(part), 1) for key in keys},
-                     **{f"{key} total": sums[key] for key in ("predict", "setup", "solve", "active_set")}}
+                     **{f"{key} total": sums[key] for key in ("predict", "setup", "solve", "active_set", "step_cpu")}}
     return out
 
 

@@ -71,10 +71,11 @@ def lower_pattern(K: sp.spmatrix):
     return lower.indices, np.repeat(np.arange(K.shape[1]), np.diff(lower.indptr)), lower.data
 
 
-def solve_spd(K: sp.spmatrix, rhs: np.ndarray, order: np.ndarray) -> np.ndarray:
-    """K x = rhs for a small SPD sparse matrix, in the fill-reducing order given by the ranks `order`
-    of its rows (one symbolic analysis, one factorisation, one solve)."""
-    rows, cols, values = lower_pattern(K)
-    factor = Cholesky(rows, cols, K.shape[0], order)
+def solve_spd(lower, n: int, rhs: np.ndarray, order: np.ndarray) -> np.ndarray:
+    """K x = rhs for a small SPD sparse matrix K of order n given by the rows, cols, values of its lower triangle
+    (lower_pattern), in the fill-reducing order given by the ranks `order` of its rows (one symbolic analysis, one
+    factorisation, one solve)."""
+    rows, cols, values = lower
+    factor = Cholesky(rows, cols, n, order)
     factor.factorise(values)
     return np.array(factor.solve(rhs)).ravel()

@@ -16,6 +16,11 @@ SHRINK = 0.6
 #: of a new numeric factorisation; beyond it bordering costs more (benchmarks/bordering.py,
 #: docs/performance.md "Bordered solves")
 BORDER_MAX = 8
+#: from this many cells in the envelope a solve on the factorised S keeps its forward substitution L^{-1} P b, and
+#: a bordered solve that follows with the same right-hand side on S_0 (the next active-set iteration of a step:
+#: b does not change within a step) substitutes only the columns of B; below it a solve on S_0 is CHOLMOD's
+#: solve in one call, as before (small runs unchanged bit for bit)
+KEEP_FORWARD_MIN = 10_000
 
 
 class EnvelopeCholesky:
@@ -36,7 +41,8 @@ class EnvelopeCholesky:
         x_0 = A_00^{-1} (b_0 - B z)   (b_0 = 0 on D, and then x_D = 0),
 
     through the factor P A_00 P^T = L D L^T: |J| + |D| + 1 forward substitutions and one
-    backward.
+    backward; |J| + |D| when the last solve on S_0 had the same b_0 (its L^{-1} P b_0 is kept, from
+    KEEP_FORWARD_MIN cells; b_0 on D only changes the multipliers, so the same on S_0 minus D suffices).
     """
 
     def __init__(self, A, envelope, size, order=None):
@@ -51,6 +57,7 @@ class EnvelopeCholesky:
         self.active = None                 # positions of the factorised S in E
         self.mask = np.zeros(len(envelope), bool)  # the factorised S as a mask on E
         self.inverse_d = None              # D^{-1} of the factor (ones for a supernodal L L^T)
+        self.forwarded = None              # (b_0, L^{-1} P b_0) of the last solve on the factorised S
 
     def fits(self, cells):
         """cells inside the envelope, and not fewer than SHRINK times the S it was made around
@@ -78,7 +85,7 @@ class EnvelopeCholesky:
         self.mask[self.active] = True
         keep = self.diagonal | (self.mask[self.row] & self.mask[self.col])
         self.factor.factorise(np.where(keep, self.values, 0.0))
-        self.inverse_d = None
+        self.inverse_d = self.forwarded = None
         return True
 
     def solve(self, cells, rhs):
@@ -86,7 +93,8 @@ class EnvelopeCholesky:
         at = self.position[cells]
         old = self.mask[at]
         self.mask[at] = False
-        left = self.active[self.mask[self.active]]   # D: factorised, no longer in S
+        gone = self.mask[self.active]
+        left = self.active[gone]   # D: factorised, no longer in S
         self.mask[at[old]] = True
         if old.all() and not left.size:
             return self._substitute(rhs)
@@ -100,26 +108,40 @@ class EnvelopeCholesky:
         within = new[j] == position                       # entries of A_JJ
         sigma = np.zeros((k + d, k + d))
         np.add.at(sigma, (row[within], j[within]), rows.data[within])
-        V = np.zeros((len(self.cells), k + d + 1), order="F")  # [b_0 | B], then L^{-1} P [b_0 | B]
-        V[at[old], 0] = rhs[old]
-        V[position[coupled], 1 + row[coupled]] = rows.data[coupled]
-        V[left, 1 + k + np.arange(d)] = 1.0
+        # b_0 on D only changes the multipliers: the kept forward serves if b_0 is the same on the cells still in S
+        reuse = self.forwarded is not None and np.array_equal(self.forwarded[0][~gone], rhs[old])
+        first = 0 if reuse else 1
+        V = np.zeros((len(self.cells), first + k + d), order="F")  # [b_0 |] B, then L^{-1} P [b_0 |] B
+        if not reuse:
+            V[at[old], 0] = rhs[old]
+        V[position[coupled], first + row[coupled]] = rows.data[coupled]
+        V[left, first + k + np.arange(d)] = 1.0
         V = self._forward(V)
-        if self.inverse_d is None:
-            self.inverse_d = np.array(self.factor.solve(np.ones(len(self.cells)), "D")).ravel()
-        DV = self.inverse_d[:, None] * V
-        sigma -= V[:, 1:].T @ DV[:, 1:]
-        z = np.linalg.solve(sigma, np.concatenate([rhs[~old], np.zeros(d)]) - V[:, 1:].T @ DV[:, 0])
+        y, V = (self.forwarded[1], V) if reuse else (V[:, 0], V[:, 1:])
+        Dy, DV = self._inverse_d() * y, self._inverse_d()[:, None] * V
+        sigma -= V.T @ DV
+        z = np.linalg.solve(sigma, np.concatenate([rhs[~old], np.zeros(d)]) - V.T @ Dy)
         x = np.empty(len(at))
         x[~old] = z[:k]
-        x[old] = self._backward(DV[:, 0] - DV[:, 1:] @ z)[at[old]]
+        x[old] = self._backward(Dy - DV @ z)[at[old]]
         return x
 
     def _substitute(self, rhs):
-        """K^{-1} b on the factorised S, for b = rhs there and 0 elsewhere."""
+        """K^{-1} b on the factorised S, for b = rhs there and 0 elsewhere (L^{-1} P b kept from KEEP_FORWARD_MIN
+        cells)."""
         b = np.zeros(len(self.cells))
         b[self.active] = rhs
-        return np.array(self.factor.solve(b)).ravel()[self.active]
+        if len(self.cells) < KEEP_FORWARD_MIN:
+            return np.array(self.factor.solve(b)).ravel()[self.active]
+        y = self._forward(b)
+        self.forwarded = (np.array(rhs, float), y)
+        return self._backward(self._inverse_d() * y)[self.active]
+
+    def _inverse_d(self):
+        """D^{-1} of the factor as a vector (computed once per factorisation)."""
+        if self.inverse_d is None:
+            self.inverse_d = np.array(self.factor.solve(np.ones(len(self.cells)), "D")).ravel()
+        return self.inverse_d
 
     def _forward(self, b):
         """L^{-1} P b."""

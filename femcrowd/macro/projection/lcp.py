@@ -174,7 +174,7 @@ class Projection:
                 tight, x0 = True, phi_S  # S settled on a loose solve: solve it again exactly
                 continue
             if spills < MAX_SPILLS and self.sets.changed(S, new) == len(new) - len(S):  # S only grows:
-                new, spills = self.warm.spill(S, new, b, L, w), spills + 1  # spread the overflow
+                new, spills = self.warm.grow(S, phi_S, new, b, L, w, info), spills + 1  # carry the front further
             tight = tight or self.sets.changed(S, new) <= TIGHT_SWITCH * len(S)
             x0 = self.sets.carry(S, phi_S, new)
             S = new

@@ -1,13 +1,16 @@
-"""Initial guesses of the active-set iterations: the saturated set S and phi of the next step.
+"""Guesses of the active-set iterations: the saturated set S and phi of the next step, and the next S of an
+iteration that grows it.
 
 A dense crowd moves the front of the saturated zone by several cells per step, while an
-active-set iteration adds one layer. Two guesses carry it further (only the guess changes:
+active-set iteration adds one layer. Three guesses carry it further (only the guess changes:
 the exact iterations that follow decide, docs/performance.md has the measured effect):
 
 - :meth:`WarmStart.predict`, when a factorisation of the last S is kept: alternating Schwarz
   between the factorised set (one substitution with the kept factor) and the band of cells
   around the moving front (local active-set iterations with small sparse solves);
-- :meth:`WarmStart.spill` otherwise, and after iterations that only grow S: the overflow of the
+- :meth:`WarmStart.advance` after an exact iteration that only grows a large S: the same alternating Schwarz
+  from that iteration's phi and factor;
+- :meth:`WarmStart.spill` otherwise, and after iterations that only grow a small S: the overflow of the
   cells that join S is spread to the next ones (a few sweeps of a divisible sandpile, the
   deterministic version of the seeds' random walks).
 """
@@ -15,6 +18,8 @@ the exact iterations that follow decide, docs/performance.md has the measured ef
 import numpy as np
 
 from ...linalg.cholmod import solve_spd
+from ...linalg.envelope import BORDER_MAX
+from ...linalg.rows import lower_block, matvec
 from ...linalg.rows import rows as gather
 from .sets import adjacency_table, product
 
@@ -31,6 +36,11 @@ MAX_LOCAL = 10
 #: the predictor is used from this size of the last S: below it its fixed cost (numpy calls, a small CHOLMOD
 #: solve per local iteration) exceeds the factorisations it saves
 PREDICT_MIN = 10_000
+#: the exact iterations that grow S from this size on are carried further by advance() rather than spill(); its
+#: local iterations per round (a cap: they stop by themselves after 10-35 on the benchmark hall) and its rounds
+ADVANCE_MIN = PREDICT_MIN
+ADVANCE_LOCAL = 40
+ADVANCE_ROUNDS = 1
 
 
 class WarmStart:
@@ -85,37 +95,72 @@ class WarmStart:
         The band solves carry the overflow of the cells that join to the cells it fills, many
         layers deep, where each exact iteration adds one layer; the solve on G then brings the far field.
         """
-        A, factor, n = self.A, self.solver.factor, len(b)
-        G = factor.factorised()
+        n = len(b)
+        G = self.solver.factor.factorised()
         in_G = np.zeros(n, bool)
         in_G[G] = True
         inside = in_G.copy()  # S as a mask
         inside[strict] = True
-        touched = strict      # every cell that has been in S outside G, or in G outside S
         phi = np.zeros(n)
-        threshold = -self.tol * self.area
-        for _ in range(PREDICTOR_ROUNDS + 1):
-            residual = -(b + A @ phi)[G]
+        self._alternate(b, phi, inside, in_G, strict, info, PREDICTOR_ROUNDS + 1, MAX_LOCAL)
+        S = np.flatnonzero(inside)
+        return S, phi[S]
+
+    def advance(self, S, phi_S, b, info):
+        """The next S of an exact active-set iteration that grows S, carried further by the alternating Schwarz of
+        :meth:`predict` from the exact phi on S (the factor just made, G = S but for bordered cells): local
+        iterations first, then, if they changed more cells than a bordered solve takes, ADVANCE_ROUNDS substitutions
+        each followed by local iterations. The band solves move the front several layers where an active-set update
+        moves it one."""
+        n = len(b)
+        in_G = np.zeros(n, bool)
+        in_G[self.solver.factor.factorised()] = True
+        inside = np.zeros(n, bool)
+        inside[S] = True
+        phi = np.zeros(n)
+        phi[S] = phi_S
+        start = inside.copy()
+        touched = self._local(b, phi, inside, in_G, np.flatnonzero(inside != in_G), info, ADVANCE_LOCAL)
+        if np.count_nonzero(inside[touched] != start[touched]) > BORDER_MAX:  # else the next iteration borders them
+            self._alternate(b, phi, inside, in_G, touched, info, ADVANCE_ROUNDS, ADVANCE_LOCAL)
+        return np.flatnonzero(inside)
+
+    def _alternate(self, b, phi, inside, in_G, touched, info, rounds, iterations):
+        """`rounds` times: a substitution with the kept factor on its set G, phi_G += A_GG^{-1} r_G (r = -(b + A phi)
+        on G in S, 0 on the cells of G that left S), then local iterations (_local). Returns the cells touched."""
+        factor = self.solver.factor
+        G = factor.factorised()
+        for _ in range(rounds):
+            residual = -(b + self.A @ phi)[G]
             residual[~inside[G]] = 0.0   # the cells of G that left S carry no equation (their phi is 0)
             phi[G] += factor.solve(G, residual)
             phi[~inside] = 0.0
-            region, w = slice(None), b + A @ phi
-            for _ in range(MAX_LOCAL):
-                flips = np.where(inside[region], phi[region] < 0, w < threshold[region])
-                flips = np.flatnonzero(flips) if isinstance(region, slice) else region[flips]
-                if not flips.size:
-                    break
-                inside[flips] = ~inside[flips]
-                phi[flips] = 0.0  # the cells that leave; those that join start from 0
-                touched = self.sets.distinct(np.concatenate([touched, flips]))
-                band = self._band(touched[inside[touched] != in_G[touched]], inside)
-                phi[band] += solve_spd(A[band][:, band], -(b[band] + A[band] @ phi),
-                                       self.solver.nested_dissection()[band])
-                info["band_solves"] += 1
-                region = self.sets.distinct(A[band].indices)  # where w and the signs of phi can have changed
-                w = b[region] + A[region] @ phi
-        S = np.flatnonzero(inside)
-        return S, phi[S]
+            touched = self._local(b, phi, inside, in_G, touched, info, iterations)
+        return touched
+
+    def _local(self, b, phi, inside, in_G, touched, info, iterations):
+        """Local active-set iterations S <- {phi >= 0 on S} U {w < 0 off S} (S the mask `inside`, updated, phi
+        updated), each followed by a solve on the band of the cells touched so far (every cell that has been in S
+        outside G, or in G outside S: `touched` and the flips) whose membership differs from in_G; returns the cells
+        touched."""
+        A, threshold = self.A, -self.tol * self.area
+        region, w = slice(None), b + A @ phi
+        for _ in range(iterations):
+            flips = np.where(inside[region], phi[region] < 0, w < threshold[region])
+            flips = np.flatnonzero(flips) if isinstance(region, slice) else region[flips]
+            if not flips.size:
+                break
+            inside[flips] = ~inside[flips]
+            phi[flips] = 0.0  # the cells that leave; those that join start from 0
+            touched = self.sets.distinct(np.concatenate([touched, flips]))
+            band = self._band(touched[inside[touched] != in_G[touched]], inside)
+            rows = gather(A, band)
+            phi[band] += solve_spd(lower_block(rows, band), len(band), -(b[band] + matvec(rows, phi)),
+                                   self.solver.nested_dissection()[band])
+            info["band_solves"] += 1
+            region = self.sets.distinct(rows.indices)  # where w and the signs of phi can have changed
+            w = b[region] + matvec(gather(A, region), phi)
+        return touched
 
     def _band(self, changed, inside):
         """The cells of S (mask inside) within FRONT_LAYERS layers of the cells `changed` (those in S
@@ -134,6 +179,13 @@ class WarmStart:
         band = np.concatenate(band)
         mark[band] = False
         return band[~self.gauge[band]]
+
+    def grow(self, S, phi_S, new, b, L, w, info):
+        """The next S after an exact iteration that only grows S (new, from phi_S on S; w on L): advance() from
+        ADVANCE_MIN cells with a factor, spill() otherwise."""
+        if self.predictor and len(S) >= ADVANCE_MIN and self.solver.factor is not None:
+            return self.advance(S, phi_S, b, info)
+        return self.spill(S, new, b, L, w)
 
     def spill(self, S, new, b, L, w):
         """The next S guessed by spreading the overflow -w of the cells that join S, and the residual
