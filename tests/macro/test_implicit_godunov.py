@@ -17,11 +17,8 @@ from femcrowd.mesh import Boundary
 from femcrowd.studies.recommended import MACRO
 
 from ..support import CASES, unit_square
-from .test_implicit_capacity import C, rooms
-
-#: a unimodal flow g = r f(r) with f(1) = 0.2 > 0 (its maximum at r* = 0.625): Godunov's flux differs from
-#: rho_K f(rho_L), and a saturated queue still moves
-UNIMODAL = 'speed_law = "1 - 0.8 * rho"'
+from .test_implicit_capacity import UNIMODAL, rooms
+from .test_implicit_lwr import keeps_the_invariants_at_large_steps
 
 
 def two_populations(n=12):
@@ -77,43 +74,7 @@ def test_the_recommended_settings_keep_the_invariants_at_cfl_4():
     0 <= rho <= 1, p >= 0, p (1 - rho) = 0, and the steps are larger than the explicit step's."""
     settings = {**MACRO, "velocity.push": 0.0, "scheme.transport": "implicit-godunov", "time.cfl_quantile": 0.5,
                 "time.cfl": 4.0}
-    model = Simulation(load_case(CASES / "bottleneck", settings)).model
-    solver, state, domain = model.solver, model.state, model.domain
-    scheme = solver.transports(state, solver.boundary.at(0.0))[0]
-    assert isinstance(scheme, ImplicitGodunovTransport) and scheme.godunov and solver.needs_projection
-    m0 = state.rho @ domain.area
-    largest = 0.0
-    for _ in range(20):
-        largest = max(largest, solver.step(state).dt)
-        assert np.allclose(state.rho @ domain.area + state.evacuated.sum(axis=1), m0, rtol=0, atol=1e-12 * m0.sum())
-        seen = invariants(domain, state)
-        assert seen["min_density"] >= 0.0 and seen["max_density"] <= 1 + 1e-9 and seen["min_pressure"] >= 0.0
-        assert seen["complementarity"] <= 1e-9 * max(seen["max_pressure"], 1.0)
-    assert largest > 4 * scheme.max_dt and state.evacuated.sum() > 0
-
-
-@pytest.mark.parametrize("cfl", [1, 8])
-@pytest.mark.parametrize("populations", [1, 2])
-def test_a_capped_interior_door_passes_exactly_its_capacity(tmp_path, cfl, populations):
-    """The queue behind the door empties at exactly C per second while it lasts, at the median cell's cfl 1 and 8,
-    one population or two; each keeps its mass to 1e-13, 0 <= rho <= 1, p >= 0, p (1 - rho) = 0."""
-    model = rooms(tmp_path, transport="implicit-godunov", cfl=cfl, populations=populations, law=UNIMODAL)
-    assert isinstance(model.solver.transports(model.state, model.solver.boundary.at(0.0))[0], ImplicitGodunovTransport)
-    domain = model.domain
-    behind = domain.centroid[:, 0] > 1
-    mass0 = model.state.rho @ domain.area
-    t, left = [], []
-    while model.state.t < 2.5:
-        info = model.solver.step(model.state)
-        t.append(model.state.t)
-        left.append(model.state.density[behind] @ domain.area[behind])
-        assert info.doors["door0"][0] == pytest.approx(C, rel=1e-12)
-        r = invariants(domain, model.state)
-        assert r["min_density"] >= 0 and r["max_density"] <= 1 + 1e-9
-        assert r["min_pressure"] >= 0 and r["complementarity"] <= 1e-9
-        kept = model.state.rho @ domain.area + model.state.evacuated.sum(axis=1)
-        assert np.abs(kept - mass0).max() <= 1e-13
-    assert np.abs(np.array(left) - (0.9 - C * np.array(t))).max() <= 1e-12
+    assert keeps_the_invariants_at_large_steps(CASES / "bottleneck", settings, ImplicitGodunovTransport).godunov
 
 
 def test_within_the_cfl_step_it_is_the_explicit_step(tmp_path):

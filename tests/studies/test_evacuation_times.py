@@ -116,6 +116,16 @@ def test_the_recommended_settings_give_every_exit_and_interior_door_the_capacity
     assert with_settings(CASES / "corridor-stair", "case", ["velocity.walls=paper"]) == ("velocity.walls=paper",)
 
 
+def saturated_exit_times(out, options) -> np.ndarray:
+    """The times of evacuation.csv of `evacuation-times` on cases/saturated-exit, two levels to t = 3 s, with
+    the command's `options`, written to `out` (one row per level)."""
+    result = CliRunner().invoke(main, ["evacuation-times", str(CASES / "saturated-exit"), "--levels", "2",
+                                       "--serial", "-q", "--set", "time.end=3.0", *options, "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    rows = list(csv.DictReader(open(out / "evacuation.csv")))
+    return np.array([[float(r[k]) for k in r if k.startswith("t ")] for r in rows])
+
+
 def test_settings_recommended_runs_what_the_explicit_overrides_run(tmp_path):
     """The option gives the times of the --set overrides docs/convergence.md spelled out before it, to the bit;
     the law slows the saturated crowd of exact solution 3 (f = 0.8 at rho_max = 1 person/m^2): the 50, 90 and 99 %
@@ -124,14 +134,7 @@ def test_settings_recommended_runs_what_the_explicit_overrides_run(tmp_path):
                 "velocity.walls=slip", "time.cfl=1", 'boundary.capacity={exit="auto"}']
     runs = {"option": ["--settings", "recommended"], "explicit": [a for o in explicit for a in ("--set", o)],
             "case": []}
-    times = {}
-    for name, options in runs.items():
-        result = CliRunner().invoke(main, ["evacuation-times", str(CASES / "saturated-exit"), "--levels", "2",
-                                           "--serial", "-q", "--set", "time.end=3.0", *options,
-                                           "--out", str(tmp_path / name)])
-        assert result.exit_code == 0, result.output
-        rows = list(csv.DictReader(open(tmp_path / name / "evacuation.csv")))
-        times[name] = np.array([[float(r[k]) for k in r if k.startswith("t ")] for r in rows])
+    times = {name: saturated_exit_times(tmp_path / name, options) for name, options in runs.items()}
     assert np.isfinite(times["case"]).all() and np.array_equal(times["option"], times["explicit"])
     assert np.all(times["option"][:, :3] > 1.1 * times["case"][:, :3])   # 50, 90, 99 % out
     assert "velocity.speed_law" in (tmp_path / "option" / "evacuation.md").read_text()
@@ -162,15 +165,9 @@ def test_settings_fast_runs_what_the_explicit_overrides_run(tmp_path):
     explicit = ["velocity.speed_law=predtechenskii", "velocity.walls=slip", 'scheme.transport="implicit-godunov"',
                 "time.cfl_quantile=0.5", "time.cfl=1.5", "velocity.speed=1.6666666666666667", "velocity.push=0",
                 'boundary.capacity={exit="auto"}']
-    times = {}
-    for name, options in {"option": ["--settings", "fast"],
-                          "explicit": [a for o in explicit for a in ("--set", o)]}.items():
-        result = CliRunner().invoke(main, ["evacuation-times", str(CASES / "saturated-exit"), "--levels", "2",
-                                           "--serial", "-q", "--set", "time.end=3.0", *options,
-                                           "--out", str(tmp_path / name)])
-        assert result.exit_code == 0, result.output
-        rows = list(csv.DictReader(open(tmp_path / name / "evacuation.csv")))
-        times[name] = np.array([[float(r[k]) for k in r if k.startswith("t ")] for r in rows])
+    times = {name: saturated_exit_times(tmp_path / name, options)
+             for name, options in {"option": ["--settings", "fast"],
+                                   "explicit": [a for o in explicit for a in ("--set", o)]}.items()}
     assert np.isfinite(times["option"]).all() and np.array_equal(times["option"], times["explicit"])
     assert "implicit-godunov" in (tmp_path / "option" / "evacuation.md").read_text()
 
