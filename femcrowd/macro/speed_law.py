@@ -27,6 +27,8 @@ continuum LWR equation itself keeps it, and the mesh drains it only by numerical
 flow through a door falls as the mesh is refined.
 """
 
+from functools import cached_property
+
 import numpy as np
 
 from ..expressions import Expression, ExpressionError
@@ -105,15 +107,21 @@ class SpeedLaw:
                            f"{f[k + 1]:.6g}): people do not walk faster in a denser crowd")
         self.f1 = float(f[-1])
         g = r * f
-        self.r_star = float(r[np.argmax(g)])
+        self._sampled_maximum = float(r[np.argmax(g)])
         rising = np.diff(g[: np.argmax(g) + 1])
         falling = np.diff(g[np.argmax(g):])
         self.unimodal = bool(np.all(rising >= -1e-14) and np.all(falling <= 1e-14))
-        if self.unimodal:
-            self.r_star = self._refine_maximum(self.r_star, 1.0 / (SAMPLES - 1))
         self.lipschitz = LIPSCHITZ_MARGIN * float(np.max(np.abs(np.diff(g))) * (SAMPLES - 1))
         #: the Lipschitz constant of f itself (f(r) <= slope (1 - r) when f(1) = 0), sampled the same way
         self.slope = LIPSCHITZ_MARGIN * float(np.max(np.abs(np.diff(f))) * (SAMPLES - 1))
+
+    @cached_property
+    def r_star(self) -> float:
+        """The maximiser of g: the best sample, refined where g is unimodal (on first use: a law that is only
+        checked, or f = 1 where no flux needs it, never pays the 160 evaluations of the refinement)."""
+        if not self.unimodal:
+            return self._sampled_maximum
+        return self._refine_maximum(self._sampled_maximum, 1.0 / (SAMPLES - 1))
 
     @property
     def constant(self) -> bool:

@@ -32,6 +32,22 @@ def test_maximum_of_the_flux_and_unimodality():
     assert not humps.unimodal
 
 
+def test_the_maximum_is_refined_on_first_use_only(monkeypatch):
+    """r* is refined when a flux first needs it (demand, supply), never for a law that is only built (the check of
+    the case, f = 1 beside a population's own law), and to the same numbers as when every law refined it at once
+    (the values of commit 9cdafa4, printed with repr)."""
+    before = {("predtechenskii", 5.4): 0.9259259259259252, ("weidmann", 5.4): 0.32419725629027707,
+              ("linear", 1.0): 0.49999999972374587, ("constant", 1.0): 0.9999999999999996}
+    calls = []
+    refine = SpeedLaw._refine_maximum
+    monkeypatch.setattr(SpeedLaw, "_refine_maximum", lambda law, *a: calls.append(law.spec) or refine(law, *a))
+    laws = {key: SpeedLaw(*key) for key in before}
+    assert not calls
+    for (spec, _), law in laws.items():
+        law.demand(np.array([0.5]))
+        assert law.r_star == before[spec, _] and calls.count(spec) == 1
+
+
 def test_godunov_demand_supply_is_the_exact_riemann_flux_of_the_linear_law():
     """min(D(a), S(b)) = g(rho(0)) with rho(x/t) the entropy solution of the Riemann problem (a | b)."""
     law = SpeedLaw("linear")
