@@ -57,6 +57,25 @@ def test_the_frozen_rates_carry_the_explicit_godunov_flux():
         assert np.abs(lagged - frozen).max() > 0.1 * np.abs(frozen).max()
 
 
+def test_the_rates_take_the_law_once_per_cell_bit_for_bit():
+    """The speed law evaluated on the cells and gathered to the flows (the flows outnumber the cells) gives the rates
+    of the law evaluated on each flow's own densities, bit for bit, for both implicit schemes: densities above 1,
+    exactly 0, exactly r*, and the empty outside of the exit flows (the second population's)."""
+    domain, schemes, rho, total = two_populations()
+    total[2], total[3] = 1.3, schemes[0][0].law.r_star
+    assert np.any(schemes[1][0].receiver == domain.ncells)
+    for implicit, _ in schemes:
+        law, seen = implicit.law, np.append(total, 0.0)
+        assert len(implicit.sender) > domain.ncells
+        sender, receiver = seen[implicit.sender], seen[implicit.receiver]
+        supply = law.supply(receiver)
+        limit = np.where(supply > 0, law(np.zeros(1)), 0.0)
+        godunov = np.divide(np.minimum(law.demand(sender), supply), sender, out=limit, where=sender > 0)
+        assert np.array_equal(implicit.speeds(rho[0], total), godunov * implicit.rate)
+        lagged = ImplicitLWRTransport.speeds(implicit, rho[0], total)
+        assert np.array_equal(lagged, law(receiver) * implicit.rate)
+
+
 def test_each_population_keeps_its_mass_and_stays_positive_at_large_steps():
     """30 and 100 x the explicit CFL step: rho~ >= 0, each population's mass plus what left through the exit is its
     mass before to round-off."""

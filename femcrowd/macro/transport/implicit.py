@@ -104,9 +104,10 @@ class ImplicitLWRTransport(LWRTransport):
         return rho[self.sender[which]] * self.law(seen[self.receiver[which]]) * self.rate[which]
 
     def speeds(self, rho, total=None) -> np.ndarray:
-        """The rate of each flow, q_e f(rho^n_L) (total^n_L with several populations)."""
+        """The rate of each flow, q_e f(rho^n_L) (total^n_L with several populations); the law is evaluated once
+        per cell (fewer than the flows), the same numbers."""
         seen = np.append(rho if total is None else total, 0.0)
-        return self.law(seen[self.receiver]) * self.rate
+        return self.law(seen)[self.receiver] * self.rate
 
     def share(self, dt, speed) -> np.ndarray:
         """omega_K, the implicit share of the fluxes out of each cell K: 1, backward Euler in every cell."""
@@ -185,8 +186,8 @@ class ImplicitGodunovTransport(ImplicitLWRTransport):
             return super().speeds(rho, total)
         seen = np.append(rho if total is None else total, 0.0)
         sender = seen[self.sender]
-        supply = self.law.supply(seen[self.receiver])
-        flux = np.minimum(self.law.demand(sender), supply)
+        supply = self.law.supply(seen)[self.receiver]   # per cell, then per flow: the same numbers, fewer of them
+        flux = np.minimum(self.law.demand(seen)[self.sender], supply)
         limit = np.where(supply > 0, self.law(np.zeros(1)), 0.0)   # the rate of an empty sender
         return np.divide(flux, sender, out=limit, where=sender > 0) * self.rate
 
