@@ -5,7 +5,7 @@ checkout over `--repeat` rounds, each run in a fresh process (OPENBLAS with one 
 the recommended settings of benchmarks/peer.py instead (femcrowd/studies/recommended.py at FREE_SPEED, the
 capacity of each exit's width), on `--scene` bottleneck or a hall of peer.py (`hall`: 100 people, `hall-1000`),
 `--coarsen K` its cells K times the benchmark's; `--implicit CFL`: the implicit prediction at CFL times the
-median cell's step (peer.py --implicit).
+median cell's step (peer.py --implicit); `--settings fast`: the same with the fast step FAST_STEP (peer.py --fast).
 
 The set-up (Simulation: scene, distance field, assembly) and the run together, in CPU seconds, are what
 peer.py times (but loading the case). `--profile`: each run under cProfile on the thread's CPU clock
@@ -24,6 +24,7 @@ of a shared machine than the wall time) and the load average during the rounds.
     python benchmarks/small_scene.py --baseline /tmp/base --end 10 --repeat 5
     python benchmarks/small_scene.py --settings recommended --scene hall --implicit 1 --repeat 3
     python benchmarks/small_scene.py --settings recommended --scene hall --coarsen 2 --implicit 1 --profile
+    python benchmarks/small_scene.py --baseline /tmp/base --settings fast --scene hall --coarsen 2 --profile
 """
 
 import argparse
@@ -43,11 +44,24 @@ SCENES = {"bottleneck": ("bottleneck", 90), "hall": ("hall", 100), "hall-1000": 
 #: the parts of a run in the profile: label -> the functions (file, name) whose largest cumulative time it is
 PROFILED = {
     "set-up (scene, mesh, distance, assembly)": [("driver/run.py", "__init__")],
+    "of which finding the BLAS and OpenMP pools (threadpoolctl)": [("linalg/threads.py", "thread_limit")],
+    "of which reading the mesh": [("mesh/domain.py", "load_domain")],
+    "of which the eikonal fields": [("mesh/distance.py", "solve_each")],
+    "of which the speed laws' constants": [("macro/speed_law.py", "__init__")],
+    "route choice (re-solved when due)": [("macro/velocity.py", "route")],
     "transport (MacroSolver._predict)": [("macro/solver.py", "_predict")],
+    "of which the rates (speed law)": [("macro/transport/implicit.py", "speeds")],
     "of which the flow order's solve": [("macro/transport/flow_order.py", "solve")],
+    "of which the doors' cap": [("mesh/capacity.py", "limit")],
     "projection and state update (_correct_step)": [("macro/solver.py", "_correct_step")],
+    "of which METIS's ordering (once a run)": [("macro/projection/solvers.py", "metis_order")],
+    "of which the warm start's first update": [("macro/projection/warm_start.py", "first_update")],
+    "of which the factorisations and solves on S": [("macro/projection/solvers.py", "solve")],
+    "of which the doors' rows (room, report)": [("mesh/capacity.py", "room"), ("mesh/capacity.py", "report")],
+    "of which the measurements (after the step)": [("driver/measurements.py", "after_step")],
     "the rows of history.csv (invariants)": [("driver/macro_model.py", "row")],
-    "frames, checkpoints, writing the rows": [("driver/sink.py", "frame"), ("driver/sink.py", "checkpoint")],
+    "frames (and writing the rows)": [("driver/sink.py", "frame")],
+    "checkpoints": [("driver/sink.py", "checkpoint")],
 }
 
 
@@ -76,7 +90,8 @@ def worker(end: float, settings: str, name: str, implicit: float, coarsen: float
     directory = scene(*SCENES[name], coarsen)[0]   # made once, under peer.py's cache
     exits = femcrowd.load_case(directory)["boundary"]["exits"]
     overrides = ({**r.PUSHING, **r.door_capacity(exits, r.PUSH_CAPACITY)} if settings == "weidmann-push" else
-                 {**r.MACRO, "velocity.speed": r.FREE_SPEED, **r.door_capacity(exits)})
+                 {**(r.FAST if settings == "fast" else r.MACRO), "velocity.speed": r.FREE_SPEED,
+                  **r.door_capacity(exits)})
     if implicit:
         overrides.update({"scheme.transport": "implicit", "time.cfl_quantile": 0.5, "time.cfl": implicit})
     profiler = cProfile.Profile(time.thread_time) if profile else None
@@ -103,7 +118,7 @@ def main():
     parser.add_argument("--baseline", help="a femcrowd checkout to compare with (e.g. a git worktree of a revision)")
     parser.add_argument("--repeat", type=int, default=3, help="rounds of the configurations")
     parser.add_argument("--end", type=float, default=200.0, help="time.end of the runs, s (the crowd is out at 58 s)")
-    parser.add_argument("--settings", choices=["weidmann-push", "recommended"], default="weidmann-push")
+    parser.add_argument("--settings", choices=["weidmann-push", "recommended", "fast"], default="weidmann-push")
     parser.add_argument("--scene", choices=list(SCENES), default="bottleneck")
     parser.add_argument("--implicit", type=float, default=0.0, metavar="CFL",
                         help="the implicit prediction at CFL x the median cell's step")
