@@ -20,6 +20,9 @@ from ..support import CASES, unit_square
 from .test_implicit_capacity import UNIMODAL, rooms
 from .test_implicit_lwr import keeps_the_invariants_at_large_steps
 
+#: the desired velocities (U_x, U_y) of the two populations of two_populations: compressive, then along x
+FIELDS = [("(0.5 - x) * 4", "1"), ("1", "(0.5 - y) * 3")]
+
 
 def two_populations(n=12):
     """Two populations on the unit square (exit right), Predtechenskii and Milinskii's law of their total (unimodal),
@@ -34,7 +37,7 @@ def two_populations(n=12):
     law = SpeedLaw("predtechenskii", 5.4)
     assert law.unimodal and law.saturates
     schemes = []
-    for ux, uy in [("(0.5 - x) * 4", "1"), ("1", "(0.5 - y) * 3")]:
+    for ux, uy in FIELDS:
         velocity = FieldVelocity(domain, Expression(ux), Expression(uy))
         normal = velocity.normal_on_facets(state, exits)
         schemes.append((ImplicitGodunovTransport(domain, exits, normal, law), LWRTransport(domain, exits, normal, law)))
@@ -57,23 +60,37 @@ def test_the_frozen_rates_carry_the_explicit_godunov_flux():
         assert np.abs(lagged - frozen).max() > 0.1 * np.abs(frozen).max()
 
 
-def test_the_rates_take_the_law_once_per_cell_bit_for_bit():
-    """The speed law evaluated on the cells and gathered to the flows (the flows outnumber the cells) gives the rates
-    of the law evaluated on each flow's own densities, bit for bit, for both implicit schemes: densities above 1,
-    exactly 0, exactly r*, and the empty outside of the exit flows (the second population's)."""
+def test_the_law_is_taken_once_per_cell_bit_for_bit():
+    """The speed law evaluated on the cells and gathered to the flows (the flows outnumber the cells, lwr.law_at)
+    gives the numbers of the law evaluated on each flow's own densities, bit for bit: the rates of both implicit
+    schemes, the explicit fluxes (Godunov's, and rho_K f(rho_L) of a law with two humps) of all flows and of a few
+    (a measurement line's); densities above 1, exactly 0, exactly r*, and the empty outside of the exit flows (the
+    second population's)."""
     domain, schemes, rho, total = two_populations()
     total[2], total[3] = 1.3, schemes[0][0].law.r_star
     assert np.any(schemes[1][0].receiver == domain.ncells)
-    for implicit, _ in schemes:
-        law, seen = implicit.law, np.append(total, 0.0)
-        assert len(implicit.sender) > domain.ncells
-        sender, receiver = seen[implicit.sender], seen[implicit.receiver]
+    humps = SpeedLaw("where(rho < 0.3, 1, where(rho < 0.4, 1 - 8 * (rho - 0.3), where(rho < 0.9, 0.2, 2 * (1 - rho))))")
+    seen = np.append(total, 0.0)
+    exits = Boundary(domain).at(0.0)
+    for (implicit, explicit), (ux, uy) in zip(schemes, FIELDS):
+        law, sender, receiver = implicit.law, seen[implicit.sender], seen[implicit.receiver]
+        assert len(implicit.sender) > len(seen)
         supply = law.supply(receiver)
         limit = np.where(supply > 0, law(np.zeros(1)), 0.0)
         godunov = np.divide(np.minimum(law.demand(sender), supply), sender, out=limit, where=sender > 0)
         assert np.array_equal(implicit.speeds(rho[0], total), godunov * implicit.rate)
         lagged = ImplicitLWRTransport.speeds(implicit, rho[0], total)
         assert np.array_equal(lagged, law(receiver) * implicit.rate)
+        share = np.where(sender > 0, rho[0][implicit.sender] / np.where(sender > 0, sender, 1.0), 0.0)
+        assert np.array_equal(explicit.flows(rho[0], total), np.minimum(law.demand(sender), supply) * share
+                              * explicit.rate)
+        few = np.arange(5)
+        assert np.array_equal(explicit.flows(rho[0], total, few), explicit.flows(rho[0], total)[few])
+        normal = FieldVelocity(domain, Expression(ux), Expression(uy)).normal_on_facets(MacroState.initial(
+            rho, 1, ["a", "b"]), exits)
+        other = LWRTransport(domain, exits, normal, humps)
+        assert not other.godunov and np.array_equal(other.sender, explicit.sender)
+        assert np.array_equal(other.flows(total), sender * humps(receiver) * explicit.rate)
 
 
 def test_each_population_keeps_its_mass_and_stays_positive_at_large_steps():

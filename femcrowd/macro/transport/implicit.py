@@ -21,7 +21,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .flow_order import FlowOrder
-from .lwr import LWRTransport
+from .lwr import LWRTransport, law_at
 from .upwind import Prediction, UpwindTransport
 
 #: the factorisations kept: the usual step and a shorter one (cut at a frame time)
@@ -104,10 +104,9 @@ class ImplicitLWRTransport(LWRTransport):
         return rho[self.sender[which]] * self.law(seen[self.receiver[which]]) * self.rate[which]
 
     def speeds(self, rho, total=None) -> np.ndarray:
-        """The rate of each flow, q_e f(rho^n_L) (total^n_L with several populations); the law is evaluated once
-        per cell (fewer than the flows), the same numbers."""
+        """The rate of each flow, q_e f(rho^n_L) (total^n_L with several populations)."""
         seen = np.append(rho if total is None else total, 0.0)
-        return self.law(seen)[self.receiver] * self.rate
+        return law_at(self.law, seen, self.receiver) * self.rate
 
     def share(self, dt, speed) -> np.ndarray:
         """omega_K, the implicit share of the fluxes out of each cell K: 1, backward Euler in every cell."""
@@ -186,8 +185,8 @@ class ImplicitGodunovTransport(ImplicitLWRTransport):
             return super().speeds(rho, total)
         seen = np.append(rho if total is None else total, 0.0)
         sender = seen[self.sender]
-        supply = self.law.supply(seen)[self.receiver]   # per cell, then per flow: the same numbers, fewer of them
-        flux = np.minimum(self.law.demand(seen)[self.sender], supply)
+        supply = law_at(self.law.supply, seen, self.receiver)
+        flux = np.minimum(law_at(self.law.demand, seen, self.sender), supply)
         limit = np.where(supply > 0, self.law(np.zeros(1)), 0.0)   # the rate of an empty sender
         return np.divide(flux, sender, out=limit, where=sender > 0) * self.rate
 

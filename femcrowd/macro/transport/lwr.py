@@ -68,9 +68,9 @@ class LWRTransport(UpwindTransport):
         seen = np.append(total, 0.0)   # the outside is empty
         sender, receiver = self.sender[which], self.receiver[which]
         if self.godunov:
-            flux = np.minimum(self.law.demand(seen[sender]), self.law.supply(seen[receiver]))
+            flux = np.minimum(law_at(self.law.demand, seen, sender), law_at(self.law.supply, seen, receiver))
         else:
-            flux = seen[sender] * self.law(seen[receiver])
+            flux = seen[sender] * law_at(self.law, seen, receiver)
         if total is not rho:   # this population's share of the sender's flux
             with np.errstate(invalid="ignore", divide="ignore"):
                 flux *= np.where(total[sender] > 0, rho[sender] / total[sender], 0.0)
@@ -110,6 +110,12 @@ class LWRTransport(UpwindTransport):
             which = np.flatnonzero(position[self.flow_facet] >= 0)
             self._flows_across[key] = which, position[self.flow_facet[which]], len(unique), inverse
         return self._flows_across[key]
+
+
+def law_at(f, values: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """f(values[index]) for a law f that acts elementwise (f, D, S): taken of the values and gathered when the
+    index is the longer (every flow of a mesh: more flows than cells), the same numbers, fewer evaluations."""
+    return f(values)[index] if len(index) > len(values) else f(values[index])
 
 
 def joint_max_dt(domain, schemes) -> float:
