@@ -5,14 +5,17 @@ The scene: a 6 m x 6 m room, a 2.4 m exit flush with its wall x = 6 (1.8 < y < 4
 at 2.5 persons/m^2 in 1 < x < 3 across the room (`--crowd all`): 12 in front of the door (population "front",
 1.8 < y < 4.2) and 18 in the two wedges beside it (population "wedge"), whose shortest paths all end at a door
 post. `--crowd front` / `wedge` keeps one of them; `--crowd block` is a saturated 1 m x 1 m block against the
-wall beside the lower post, alone. The settings are the recommended ones of the density model
+wall beside the lower post, alone; `--crowd blob` a smooth crowd of 3.2 people in the lower wedge (a Gaussian of
+peak 3 persons/m^2 at (2, 0.9)). The settings are the recommended ones of the density model
 (femcrowd/studies/recommended.py MACRO at FREE_SPEED: Predtechenskii and Milinskii's law, slip walls, cfl 1);
 `--law` replaces the law (a name or an expression in rho; "constant" is the paper's model at the same speed).
 
 Per level it prints the cells, steps and CPU seconds of the run; the flow J (persons/s while 20 to 80 % of the
 crowd are out, femcrowd/studies/validation.py flow); the times at which half of each population is out; and,
 while 20 to 80 % are out, the mean saturated area (rho = rho_max), the mean number of unknowns of the projection
-per step (its active set) and of cells within 0.5 m of a post where it acts (phi > 0).
+per step (its active set) and of cells within 0.5 m of a post where it acts (phi > 0); and the persons who cross
+the edge of the door's shadow beside the lower post (the line y = 1.8 from x = 3 to the wall, as the facets
+between the cells whose centroid is below it and those above) by the transport and by the projection's pressure.
 
 `--flux` swaps the LWR flux of femcrowd/macro/transport/lwr.py for a prototype, in this process only:
 "godunov" (shipped: q_e min(D(rho_K), S(rho_L)), Lebacque 1996), "downstream" (q_e rho_K f(rho_L), the flux of
@@ -45,7 +48,8 @@ WEDGE = f"((y < {LOW}) + (y > {HIGH}))"
 CROWDS = {"all": {"wedge": f"{DENSITY} * {BAND} * {WEDGE}", "front": f"{DENSITY} * {BAND} * {FRONT}"},
           "front": {"front": f"{DENSITY} * {BAND} * {FRONT}"},
           "wedge": {"wedge": f"{DENSITY} * {BAND} * {WEDGE}"},
-          "block": {"wedge": f"{RHO_MAX} * (x > {SIDE - 1}) * (y > {LOW - 1}) * (y < {LOW})"}}
+          "block": {"wedge": f"{RHO_MAX} * (x > {SIDE - 1}) * (y > {LOW - 1}) * (y < {LOW})"},
+          "blob": {"wedge": "3 * exp(-(x - 2)**2 / 0.4) * exp(-(y - 0.9)**2 / 0.3)"}}
 NEAR_POST = 0.5   # m
 
 
@@ -85,11 +89,23 @@ def measure(scene, level, crowd, law):
     x, y = domain.centroid.T
     near = np.minimum(np.hypot(x - SIDE, y - LOW), np.hypot(x - SIDE, y - HIGH)) < NEAR_POST
     saturated, unknowns, acting = [], [], []
+    below = y < LOW
+    k0, k1 = domain.f2t
+    inner = np.flatnonzero(domain.interior)
+    edge = inner[(below[k0[inner]] != below[k1[inner]]) & (domain.midpoint[inner, 0] > 3.0)]
+    upward = np.where(below[k0[edge]], 1.0, -1.0)   # f2t[0] -> f2t[1] is upward across the line
+    exits = simulation.scene.boundary.at(0.0)
+    crossed = {"transport": 0.0, "pressure": 0.0}
+
+    def transported(solver, state, dt):
+        crossed["transport"] += upward @ solver.facet_flux(state, dt, edge)
 
     def record(solver, state, step):
         saturated.append(domain.area[state.rho.sum(axis=0) >= 1 - 1e-9].sum())
         unknowns.append(step.unknowns)
         acting.append(np.count_nonzero(step.flux.phi[: domain.ncells][near] > 0))
+        crossed["pressure"] += upward @ step.flux.facet_flux(domain, exits, edge)
+    simulation.model.solver.before_step.append(transported)
     simulation.model.solver.after_step.append(record)
     cpu = time.process_time()
     history = simulation.run().history
@@ -103,7 +119,7 @@ def measure(scene, level, crowd, law):
     return {"cells": domain.ncells, "steps": len(t) - 1, "cpu": cpu, "people": total, "flow": flow(t, out, total),
             "t50": halves, "saturated": np.mean(np.array(saturated)[window]),
             "unknowns": np.mean(np.array(unknowns)[window]), "near": np.mean(np.array(acting)[window]),
-            "near_cells": int(near.sum())}
+            "near_cells": int(near.sum()), **{k: RHO_MAX * v for k, v in crossed.items()}}
 
 
 def main():
@@ -121,12 +137,13 @@ def main():
     scene = fc.Scene(plan)
     print(f"crowd {args.crowd}, law {args.law or MACRO['velocity.speed_law']}, flux {args.flux}")
     print("level | cells | steps | CPU (s) | flow (persons/s) | t50 by population (s) | saturated (m^2) | "
-          "projection unknowns | near-post cells with phi > 0")
+          "projection unknowns | near-post cells with phi > 0 | across the shadow's edge: transport, pressure")
     for level in map(int, args.levels.split(",")):
         m = measure(scene, level, args.crowd, args.law)
         halves = ", ".join(f"{name} {value:.2f}" for name, value in m["t50"].items())
         print(f"{level} | {m['cells']} | {m['steps']} | {m['cpu']:.1f} | {m['flow']:.3f} | {halves} | "
-              f"{m['saturated']:.2f} | {m['unknowns']:.0f} | {m['near']:.0f} of {m['near_cells']}", flush=True)
+              f"{m['saturated']:.2f} | {m['unknowns']:.0f} | {m['near']:.0f} of {m['near_cells']} | "
+              f"{m['transport']:.2f}, {m['pressure']:.2f}", flush=True)
 
 
 if __name__ == "__main__":
