@@ -20,7 +20,8 @@ between the cells whose centroid is below it and those above) by the transport a
 `--flux` swaps the LWR flux of femcrowd/macro/transport/lwr.py for a prototype, in this process only:
 "godunov" (shipped: q_e min(D(rho_K), S(rho_L)), Lebacque 1996), "downstream" (q_e rho_K f(rho_L), the flux of
 the laws whose g has several humps), "demand" (q_e D(rho_K): no supply limit, the projection alone keeps
-rho <= 1), "sender" (q_e g(rho_K): the upwind flux of the sender's speed).
+rho <= 1), "sender" (q_e g(rho_K): the upwind flux of the sender's speed). The time step stays that of the
+shipped flux; rho <= 1 is the projection's (f(1) > 0 for the laws measured).
 
     python benchmarks/flush_door.py --levels 0,1,2
     python benchmarks/flush_door.py --levels 0,1,2 --flux demand
