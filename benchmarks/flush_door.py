@@ -1,0 +1,151 @@
+"""The flow of a door flush with a wall under mesh refinement (issue 34 item 2; docs/model.md, "The flow of a
+door flush with a wall").
+
+The scene: a 6 m x 6 m room, a 2.4 m exit flush with its wall x = 6 (1.8 < y < 4.2), no door capacity, 30 people
+at 2.5 persons/m^2 in 1 < x < 3 across the room (`--crowd all`): 12 in front of the door (population "front",
+1.8 < y < 4.2) and 18 in the two wedges beside it (population "wedge"), whose shortest paths all end at a door
+post. `--crowd front` / `wedge` keeps one of them; `--crowd block` is a saturated 1 m x 1 m block against the
+wall beside the lower post, alone; `--crowd blob` a smooth crowd of 3.2 people in the lower wedge (a Gaussian of
+peak 3 persons/m^2 at (2, 0.9)). The settings are the recommended ones of the density model
+(femcrowd/studies/recommended.py MACRO at FREE_SPEED: Predtechenskii and Milinskii's law, slip walls, cfl 1);
+`--law` replaces the law (a name or an expression in rho; "constant" is the paper's model at the same speed).
+
+Per level it prints the cells, steps and CPU seconds of the run; the flow J (persons/s while 20 to 80 % of the
+crowd are out, femcrowd/studies/validation.py flow); the times at which half of each population is out; and,
+while 20 to 80 % are out, the mean saturated area (rho = rho_max), the mean number of unknowns of the projection
+per step (its active set) and of cells within 0.5 m of a post where it acts (phi > 0); and the persons who cross
+the edge of the door's shadow beside the lower post (the line y = 1.8 from x = 3 to the wall, as the facets
+between the cells whose centroid is below it and those above) by the transport and by the projection's pressure.
+
+`--flux` swaps the LWR flux of femcrowd/macro/transport/lwr.py for a prototype, in this process only:
+"godunov" (shipped: q_e min(D(rho_K), S(rho_L)), Lebacque 1996), "downstream" (q_e rho_K f(rho_L), the flux of
+the laws whose g has several humps), "demand" (q_e D(rho_K): no supply limit, the projection alone keeps
+rho <= 1), "sender" (q_e g(rho_K): the upwind flux of the sender's speed). The time step stays that of the
+shipped flux; rho <= 1 is the projection's (f(1) > 0 for the laws measured).
+
+    python benchmarks/flush_door.py --levels 0,1,2
+    python benchmarks/flush_door.py --levels 0,1,2 --flux demand
+    python benchmarks/flush_door.py --levels 0,1,2 --law constant
+    python benchmarks/flush_door.py --levels 0,1,2 --crowd block
+"""
+
+import argparse
+import time
+
+import numpy as np
+
+import femcrowd.api as fc
+from femcrowd.driver.run import Simulation
+from femcrowd.macro.transport.lwr import LWRTransport
+from femcrowd.studies.recommended import FREE_SPEED, MACRO
+from femcrowd.studies.validation import flow
+
+SIDE, LOW, HIGH = 6.0, 1.8, 4.2     # the room's side, the door's ends on the wall x = SIDE (m)
+RHO_MAX, DENSITY = 5.4, 2.5          # persons/m^2
+BAND = "(x > 1) * (x < 3)"
+FRONT = f"(y > {LOW}) * (y < {HIGH})"
+WEDGE = f"((y < {LOW}) + (y > {HIGH}))"
+#: the initial density of each population (persons/m^2) per --crowd
+CROWDS = {"all": {"wedge": f"{DENSITY} * {BAND} * {WEDGE}", "front": f"{DENSITY} * {BAND} * {FRONT}"},
+          "front": {"front": f"{DENSITY} * {BAND} * {FRONT}"},
+          "wedge": {"wedge": f"{DENSITY} * {BAND} * {WEDGE}"},
+          "block": {"wedge": f"{RHO_MAX} * (x > {SIDE - 1}) * (y > {LOW - 1}) * (y < {LOW})"},
+          "blob": {"wedge": "3 * exp(-(x - 2)**2 / 0.4) * exp(-(y - 0.9)**2 / 0.3)"}}
+NEAR_POST = 0.5   # m
+
+
+def prototype(name):
+    """LWRTransport.flows with the facet flux `name` (module docstring); None: the shipped one."""
+    if name == "godunov":
+        return None
+    # of the law, the sender's density and the receiver's
+    law_flux = {"downstream": lambda law, sent, received: sent * law(received),
+                "demand": lambda law, sent, received: law.demand(sent),
+                "sender": lambda law, sent, received: law.flux(sent)}[name]
+
+    def flows(self, rho, total=None, which=slice(None)):
+        total = rho if total is None else total
+        seen = np.append(total, 0.0)
+        sender = self.sender[which]
+        flux = law_flux(self.law, seen[sender], seen[self.receiver[which]])
+        if total is not rho:
+            with np.errstate(invalid="ignore", divide="ignore"):
+                flux *= np.where(total[sender] > 0, rho[sender] / total[sender], 0.0)
+        return flux * self.rate[which]
+    return flows
+
+
+def measure(scene, level, crowd, law):
+    """One run: the numbers of the module docstring."""
+    settings = {"model": {"rho_max": RHO_MAX}, "mesh": {"refine": level}, "output": {"every": 1000.0},
+                "time": {"end": 60.0}, "velocity": {"speed": FREE_SPEED},
+                "populations": {name: {"density": density} for name, density in CROWDS[crowd].items()}}
+    for key, value in MACRO.items():
+        table, name = key.split(".")
+        settings.setdefault(table, {})[name] = value
+    if law is not None:
+        settings["velocity"]["speed_law"] = law
+    simulation = Simulation(scene.case(**settings))
+    domain = simulation.model.solver.domain
+    x, y = domain.centroid.T
+    near = np.minimum(np.hypot(x - SIDE, y - LOW), np.hypot(x - SIDE, y - HIGH)) < NEAR_POST
+    saturated, unknowns, acting = [], [], []
+    below = y < LOW
+    k0, k1 = domain.f2t
+    inner = np.flatnonzero(domain.interior)
+    edge = inner[(below[k0[inner]] != below[k1[inner]]) & (domain.midpoint[inner, 0] > 3.0)]
+    upward = np.where(below[k0[edge]], 1.0, -1.0)   # f2t[0] -> f2t[1] is upward across the line
+    exits = simulation.scene.boundary.at(0.0)
+    crossed = {"transport": 0.0, "pressure": 0.0}
+
+    def transported(solver, state, dt):
+        crossed["transport"] += upward @ solver.facet_flux(state, dt, edge)
+
+    def record(solver, state, step):
+        saturated.append(domain.area[state.rho.sum(axis=0) >= 1 - 1e-9].sum())
+        unknowns.append(step.unknowns)
+        acting.append(np.count_nonzero(step.flux.phi[: domain.ncells][near] > 0))
+        crossed["pressure"] += upward @ step.flux.facet_flux(domain, exits, edge)
+    simulation.model.solver.before_step.append(transported)
+    simulation.model.solver.after_step.append(record)
+    cpu = time.process_time()
+    history = simulation.run().history
+    cpu = time.process_time() - cpu
+    t, out = np.asarray(history["time"]), np.asarray(history["evacuated"])
+    total = history["mass"][0]
+    window = ((out >= 0.2 * total) & (out <= 0.8 * total))[1:]
+    column = (lambda name, what: f"{what}_{name}") if len(CROWDS[crowd]) > 1 else (lambda name, what: what)
+    halves = {name: float(np.interp(0.5 * history[column(name, "mass")][0], history[column(name, "evacuated")], t))
+              for name in CROWDS[crowd]}
+    return {"cells": domain.ncells, "steps": len(t) - 1, "cpu": cpu, "people": total, "flow": flow(t, out, total),
+            "t50": halves, "saturated": np.mean(np.array(saturated)[window]),
+            "unknowns": np.mean(np.array(unknowns)[window]), "near": np.mean(np.array(acting)[window]),
+            "near_cells": int(near.sum()), **{k: RHO_MAX * v for k, v in crossed.items()}}
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--levels", default="0,1,2", help="the mesh.refine levels, comma-separated")
+    parser.add_argument("--crowd", choices=sorted(CROWDS), default="all")
+    parser.add_argument("--law", help="the speed law instead of the recommended one (a name or an expression)")
+    parser.add_argument("--flux", choices=("godunov", "downstream", "demand", "sender"), default="godunov")
+    args = parser.parse_args()
+    flows = prototype(args.flux)
+    if flows is not None:
+        LWRTransport.flows = flows
+    plan = {"size": 0.25, "outer": {"points": [[0, 0], [SIDE, 0], [SIDE, SIDE], [0, SIDE]]},
+            "exits": [{"name": "exit", "from": [SIDE, LOW], "to": [SIDE, HIGH]}]}
+    scene = fc.Scene(plan)
+    print(f"crowd {args.crowd}, law {args.law or MACRO['velocity.speed_law']}, flux {args.flux}")
+    print("level | cells | steps | CPU (s) | flow (persons/s) | t50 by population (s) | saturated (m^2) | "
+          "projection unknowns | near-post cells with phi > 0 | across the shadow's edge: transport, pressure")
+    for level in map(int, args.levels.split(",")):
+        m = measure(scene, level, args.crowd, args.law)
+        halves = ", ".join(f"{name} {value:.2f}" for name, value in m["t50"].items())
+        print(f"{level} | {m['cells']} | {m['steps']} | {m['cpu']:.1f} | {m['flow']:.3f} | {halves} | "
+              f"{m['saturated']:.2f} | {m['unknowns']:.0f} | {m['near']:.0f} of {m['near_cells']} | "
+              f"{m['transport']:.2f}, {m['pressure']:.2f}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
