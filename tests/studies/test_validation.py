@@ -150,3 +150,20 @@ def test_predtechenskii_s_law_with_auto_capacities_passes_the_capacity_of_the_wi
                                               for level in (0, 1))
     assert min(out_coarse, out_fine) > 0.999
     assert fine == pytest.approx(2.08, rel=0.03) and abs(fine - coarse) <= 0.01 * fine
+
+
+def test_the_setting_fast_is_the_recommended_one_with_the_fast_step_spelled_out(tmp_path):
+    """validate --settings fast: the case of the setting "recommended" with FAST_STEP's three keys spelled out as
+    --set (implicit-godunov at 1.5 times the median cell's CFL step), and nothing else different."""
+    directory = validation.scene(1.0, tmp_path)
+    settings = validation.SETTINGS
+    fast = load_case(directory, settings["fast"].overrides).config
+    spelled = ('scheme.transport="implicit-godunov"', "time.cfl_quantile=0.5", "time.cfl=1.5")
+    assert fast == load_case(directory, [*settings["recommended"].overrides, *spelled]).config
+    explicit = load_case(directory, settings["recommended"].overrides).config
+    assert {s for s in fast if not isinstance(fast[s], dict) and fast[s] != explicit[s]} == set()
+    differ = {(section, key) for section in fast if isinstance(fast[section], dict) for key in fast[section]
+              if fast[section][key] != explicit[section].get(key)}
+    assert differ == {("scheme", "transport"), ("time", "cfl_quantile"), ("time", "cfl")}
+    assert (fast["scheme"]["transport"], fast["time"]["cfl_quantile"], fast["time"]["cfl"]) == (
+        "implicit-godunov", 0.5, 1.5)
