@@ -100,7 +100,8 @@ def plan_study(case_dir, levels: int, overrides=(), cfls=(), set_values=(), time
     if bad:
         raise InputError(base.file, "--times", bad[0], f"must be in (0, time.end = {end:g}]")
     measured = tuple(sorted(set(times) | {end}))
-    building = load_domain(base.path(base["mesh"]["file"]), base["boundary"]["exits"], 0, base.file).z is not None
+    first = base.path(meshes[0] if meshes else base["mesh"]["file"])
+    building = load_domain(first, base["boundary"]["exits"], 0, base.file).z is not None
     options = [[(key, v) for v in values] for key, values in parse_set_values(set_values)]
     tasks = []
     for combo in itertools.product(*options, [("time.cfl", c) for c in cfls] or [None]):
