@@ -247,7 +247,7 @@ def rimea(out, only, models, seeds, quiet):
                    "corridor.csv and corridor.md.")
 @click.option("--settings", default=None, metavar="S1,S2,...",
               help="Settings to run (default: all): paper, weidmann, pushing, capacity, weidmann-push, recommended, "
-                   "discs-paper, discs.")
+                   "fast (the recommended ones with the fast step), discs-paper, discs.")
 @click.option("--widths", callback=_floats("--widths"), metavar="W1,W2,...",
               help="Bottleneck widths in m (default: 0.5,0.8,1,1.2,1.6,2,2.4,3,3.6,4.4,5), or the corridor's exit "
                    "widths (default: 0.7,0.95,1.2,1.8, the experiment's).")

@@ -60,24 +60,25 @@ def build_scene(case: Case, plan=None) -> Scene:
     return scene
 
 
-#: what a case on a building (docs/floors.md) may not use yet: key -> (the value it may have, why)
+#: what a case on a building (docs/floors.md) may not use yet: key -> (the values it may have, why)
 NOT_ON_BUILDINGS = {
-    ("scheme", "transport"): ("upwind", "on a building only the upwind transport is on the surface yet (the others "
-                                        "reconstruct in plan; docs/floors.md)"),
-    ("measure", "lines"): ([], "measurement lines are located in plan, where the floors overlap (docs/floors.md)"),
-    ("measure", "areas"): ([], "measurement areas are located in plan, where the floors overlap (docs/floors.md)"),
+    ("scheme", "transport"): (("upwind", *IMPLICIT), "on a building only the upwind transports, explicit and "
+                                                     "implicit, are on the surface yet (muscl and compressive "
+                                                     "reconstruct in plan; docs/floors.md)"),
+    ("measure", "lines"): (([],), "measurement lines are located in plan, where the floors overlap (docs/floors.md)"),
+    ("measure", "areas"): (([],), "measurement areas are located in plan, where the floors overlap (docs/floors.md)"),
 }
 
 
-#: what the discs on a building (docs/floors.md, "Discs on stairs") may not use yet: key -> (its value then, why)
+#: what the discs on a building (docs/floors.md, "Discs on stairs") may not use yet: key -> (its values then, why)
 DISCS_NOT_ON_BUILDINGS = {
-    ("velocity", "type"): ("exits", "the discs of a building walk by the walking distance on its surface only "
-                                    "(docs/floors.md)"),
-    ("velocity", "route"): ("shortest", "the discs' route choice sees their density in plan, where the floors "
-                                        "overlap (docs/floors.md)"),
-    ("micro", "positions"): (None, "a file of disc centres gives no floor: give the crowd by initial.regions "
-                                   "(docs/floors.md)"),
-    ("sources", None): ([], "discs arriving on a building are not placed on its surface yet (docs/floors.md)"),
+    ("velocity", "type"): (("exits",), "the discs of a building walk by the walking distance on its surface only "
+                                       "(docs/floors.md)"),
+    ("velocity", "route"): (("shortest",), "the discs' route choice sees their density in plan, where the floors "
+                                           "overlap (docs/floors.md)"),
+    ("micro", "positions"): ((None,), "a file of disc centres gives no floor: give the crowd by initial.regions "
+                                      "(docs/floors.md)"),
+    ("sources", None): (([],), "discs arriving on a building are not placed on its surface yet (docs/floors.md)"),
 }
 
 
@@ -87,7 +88,7 @@ def check_building(case: Case) -> None:
     rules = {**NOT_ON_BUILDINGS, **(DISCS_NOT_ON_BUILDINGS if case["model"]["type"] == "micro" else {})}
     for (section, key), (allowed, why) in rules.items():
         value = case[section] if key is None else case[section][key]
-        if value != allowed:
+        if value not in allowed:
             raise InputError(case.file, section if key is None else f"{section}.{key}", value, why)
 
 

@@ -28,11 +28,11 @@ import skfem
 from ..case import load_case
 from ..driver import Simulation
 from ..driver.output import prepare_output_dir
-from ..driver.scene import check_transport_cfl
+from ..driver.scene import check_building, check_transport_cfl
 from ..errors import InputError, Interrupted, StudyFailed
 from ..files import replaced, write_text
 from ..macro.transport import TRANSPORTS
-from ..mesh import Domain
+from ..mesh import Domain, load_domain
 from ..plot.convergence import error_plot
 from ..timer import Stopwatch
 from .execute import StudyInterrupted, describe, execute
@@ -100,6 +100,8 @@ def plan_study(case_dir, levels: int, overrides=(), cfls=(), set_values=(), time
     if bad:
         raise InputError(base.file, "--times", bad[0], f"must be in (0, time.end = {end:g}]")
     measured = tuple(sorted(set(times) | {end}))
+    first = base.path(meshes[0] if meshes else base["mesh"]["file"])
+    building = load_domain(first, base["boundary"]["exits"], 0, base.file).z is not None
     options = [[(key, v) for v in values] for key, values in parse_set_values(set_values)]
     tasks = []
     for combo in itertools.product(*options, [("time.cfl", c) for c in cfls] or [None]):
@@ -116,6 +118,8 @@ def plan_study(case_dir, levels: int, overrides=(), cfls=(), set_values=(), time
                 mesh = f"{Path(base['mesh']['file']).name} refine {base['mesh']['refine'] + level}"
             case = load_case(case_dir, list(overrides) + extra)
             check_transport_cfl(case, TRANSPORTS[case["scheme"]["transport"]])
+            if building:   # what a building cannot run yet (driver/scene.py), refused before any run as by femcrowd run
+                check_building(case)
             tasks.append(Task(label, level, str(case_dir), tuple(overrides) + tuple(extra), measured,
                               exact is not None, case["time"]["cfl"], mesh, values=dict(combo)))
     return base, exact, tasks

@@ -29,6 +29,9 @@
   1 000 people, cases/route-queues, cases/route-choice and RiMEA 12 (two meshes for four of them) every t50, t90,
   t99 and t_last is within 0.71 % of STEP on the same mesh, in 1/3.4 to 1/12 of the steps; of the door flows
   only route-choice's far door misses, by 1.4 %. At cfl 2 route-choice misses by 1.6 to 2.1 %, hence 1.5.
+  Not the recommended step, though it gives femcrowd validate's figures: on the coarse meshes of cases/lwr-shock
+  and lwr-fan it is more than 1 % from the converged evacuation time where STEP is within 1 % (docs/performance.md,
+  "The fast step against the validation").
 - The variant "weidmann-push" (WEIDMANN_PUSH, the recommended settings before Predtechenskii and Milinskii's law):
   Weidmann's law (1993) at 1.34 m/s with PUSH, the least factor of the speed law that keeps a jam moving (0.2
   passes 1.9 persons/(m s) through the 1 m bottleneck, converged on three meshes), and PUSH_CAPACITY 1.9 on every

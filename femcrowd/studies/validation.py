@@ -34,6 +34,7 @@ from .execute import execute
 from .recommended import (
     DISCS,
     DOOR_CAPACITY,
+    FAST,
     FREE_SPEED,
     MACRO,
     PUSH,
@@ -106,6 +107,9 @@ SETTINGS = {
                              "(weidmann-push)", (*_set(WEIDMANN_PUSH), _capacity(PUSH_CAPACITY))),
     "recommended": Setting(f"macro, Predtechenskii-Milinskii law at {FREE_SPEED:.2f} m/s, door capacity of the width "
                            "(recommended)", (*_set({**MACRO, "velocity.speed": FREE_SPEED}), _capacity())),
+    "fast": Setting(f"macro, Predtechenskii-Milinskii law at {FREE_SPEED:.2f} m/s, door capacity of the width, "
+                    "implicit-godunov at cfl 1.5 of the median cell (fast)",
+                    (*_set({**FAST, "velocity.speed": FREE_SPEED}), _capacity())),
     "discs-paper": Setting("discs r = 0.2 m, pushing (the paper's discs)",
                            ("model.type=micro", "micro.radius=0.2"), discs=True),
     "discs": Setting(f"discs r = 0.2 m, Weidmann's law, push {PUSH:g}, decelerating, fluctuation "

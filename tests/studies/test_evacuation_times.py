@@ -81,6 +81,17 @@ def test_a_micro_case_is_refused_in_one_line(tmp_path):
     assert not (tmp_path / "t").exists()
 
 
+def test_a_transport_a_building_cannot_run_is_refused_in_one_line_before_any_run(tmp_path):
+    """muscl on cases/corridor-stair (a building: muscl reconstructs in plan): one line naming the case file,
+    scheme.transport and its value, exit code 2 and no directory, as femcrowd run does; before, every level ran
+    and failed (exit code 1, a table of nan)."""
+    result = CliRunner().invoke(main, ["evacuation-times", str(CASES / "corridor-stair"), "--levels", "2", "--serial",
+                                       "--out", str(tmp_path / "t"), "--set", 'scheme.transport="muscl"'])
+    assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
+    assert "corridor-stair/case.toml: scheme.transport = 'muscl'" in result.output and "building" in result.output
+    assert not (tmp_path / "t").exists()
+
+
 def test_a_failed_level_leaves_the_others_tabulated(tmp_path, monkeypatch):
     """Level 1 of 3 raises: levels 0 and 2 keep their times, level 1 has none and its one-line reason; exit 1."""
     from femcrowd.macro.projection.lcp import ProjectionError
