@@ -81,13 +81,18 @@ def convergence(case_dir, levels, cfl, set_values, times, overrides, out, serial
                    "(Predtechenskii and Milinskii's law at its free speed, no push, slip walls, cfl 1, the capacity "
                    "of its width on every exit and interior door); fast: the same with the fast step "
                    "(implicit-godunov at 1.5 times the median cell's CFL step), before --set.")
+@click.option("--join", type=click.Path(), metavar="DIR",
+              help="Tabulate also the levels of an earlier evacuation-times study of the same case and settings (its "
+                   "--out), by mesh size: a finer level run alone gets the differences and orders of all of them; a "
+                   "mesh run in both must give the same steps and times to the bit.")
 @set_option
 @study_out_option("evacuation")
 @serial_option
 @scheduler_option
 @force_option
 @quiet_option
-def evacuation_times(case_dir, levels, cfl, set_values, settings, overrides, out, serial, scheduler, force, quiet):
+def evacuation_times(case_dir, levels, cfl, set_values, settings, join, overrides, out, serial, scheduler, force,
+                     quiet):
     """Evacuation times of a macro case under mesh refinement: when 50, 90, 99 %, all but
     time.empty_fraction of the crowd and the last person (all but half a person) are out, on each level,
     with the change between levels, the observed order and Richardson's estimate of the converged time.
@@ -100,11 +105,13 @@ def evacuation_times(case_dir, levels, cfl, set_values, settings, overrides, out
       femcrowd evacuation-times cases/two-exits --levels 3 --serial --out /tmp/two-exits-times
       femcrowd evacuation-times cases/room --levels 3 --settings recommended
       femcrowd evacuation-times cases/room --levels 3 --settings fast
+      femcrowd evacuation-times cases/room --levels 3 --out /tmp/room-times
+      femcrowd evacuation-times cases/room --levels 2 --set mesh.refine=2 --join /tmp/room-times --out /tmp/room-4
     """
     from ..studies.evacuation import study
 
     rows, text, out_dir = study(case_dir, levels, out, overrides, cfl, set_values, serial, scheduler, force,
-                                echo=click.echo, quiet=quiet, settings=settings)
+                                echo=click.echo, quiet=quiet, settings=settings, join=join)
     click.echo(text)
     click.echo(f"report: {out_dir}/evacuation.md, evacuation.csv")
 

@@ -14,18 +14,22 @@ t_k + d_k / ((h_{k-1} / h_k)^p_k - 1) (Richardson 1911; the generalised form of 
 sign changes the convergence is oscillatory and the estimate is not defined (Celik et al. 2008, J. Fluids Eng.
 130, 078001): it would extrapolate along d_k, which the next level may reverse again. evacuation.csv also gives
 each level's flow, persons per second while 20 to 80 % of the crowd are out (validation.flow).
+
+A study may join the levels of an earlier one of the same case and settings (``--join``): a finer level run
+alone is then tabulated with the coarser ones, its order read on all of them.
 """
 
 import csv
 import math
 import os
+from pathlib import Path
 
 import numpy as np
 
 from ..case import load_case
 from ..driver import Simulation
 from ..driver.output import prepare_output_dir
-from ..errors import InputError, Interrupted, StudyFailed
+from ..errors import InputError, Interrupted, StudyFailed, not_a_file
 from ..files import replaced, write_text
 from ..timer import Stopwatch
 from .convergence import plan_study
@@ -37,6 +41,9 @@ from .validation import flow
 SHARES = (0.5, 0.9, 0.99)
 #: the last person is out when fewer than this many persons are inside (the crowd's mass in persons)
 LAST = 0.5
+#: the columns of evacuation.csv before the times; the text ones, the whole numbers
+LEVEL_COLUMNS = ("series", "level", "mesh", "cfl", "cells", "h", "steps", "wall_seconds", "cpu_seconds", "flow")
+TEXT, WHOLE = ("series", "mesh"), ("level", "cells", "steps")
 
 
 def evacuation_times(time, evacuated, total, shares) -> list:
@@ -96,10 +103,11 @@ def observed(values, h) -> tuple[list, list, list]:
 
 def study(case_dir, levels: int, out=None, overrides=(), cfls=(), set_values=(), serial: bool = False,
           scheduler: str | None = None, force: bool = False, echo=None, quiet: bool = True,
-          settings: str = "case") -> tuple[list, str, object]:
+          settings: str = "case", join=None) -> tuple[list, str, object]:
     """Run the refinement series and write evacuation.csv and evacuation.md; (rows, report text, directory).
     settings: "case", "recommended" or "fast" (studies/settings.py: the recommended settings on the case, with the
-    recommended or the fast step, before overrides).
+    recommended or the fast step, before overrides). join: the directory of an earlier study whose levels are
+    tabulated with these (read_levels, joined).
 
     A level that fails or is not reached (Ctrl-C) has no times (nan); the others are tabulated, and StudyFailed
     or Interrupted then says which did not finish, as in a convergence study."""
@@ -110,27 +118,38 @@ def study(case_dir, levels: int, out=None, overrides=(), cfls=(), set_values=(),
                          "evacuation times under mesh refinement are a macro study (discs: femcrowd sweep over seeds)")
     if not base["boundary"]["exits"]:
         raise InputError(base.file, "boundary.exits", [], "a scene without exits has no evacuation time")
-    out_dir = prepare_output_dir(base.output_dir(out, "evacuation"), base.file, force)
+    names = share_names(base)
+    out_dir = base.output_dir(out, "evacuation")
+    earlier = [] if join is None else read_levels(join, {t.series for t in tasks}, names, out_dir)
+    out_dir = prepare_output_dir(out_dir, base.file, force)
     try:
         results = execute(run_level, tasks, serial, scheduler, echo=echo, keep_going=True, quiet=quiet)
         stopped = None
     except StudyInterrupted as stop:
         results, stopped = stop.results, stop
-    names = share_names(base)
     rows = [{"series": t.series, "level": t.level, "mesh": t.mesh, "cfl": t.cfl,
              **({k: r[k] for k in ("cells", "h", "steps", "wall_seconds", "cpu_seconds", "flow")} if _finished(r) else
                 {"cells": 0, "h": math.nan, "steps": 0, "wall_seconds": math.nan, "cpu_seconds": math.nan,
                  "flow": math.nan}),
              **{f"t {name}": v for name, v in zip(names, r["times"] if _finished(r) else [math.nan] * len(names))}}
             for t, r in zip(tasks, results)]
+    failed = [(describe(t), r["failed"]) for t, r in zip(tasks, results) if r is not None and "failed" in r]
+    kept = f"the finished levels kept in {out_dir}/evacuation.md and evacuation.csv"
+    mismatch = joined_from = None
+    if earlier and stopped is None and not failed:
+        try:
+            rows, joined_from = joined(earlier, rows, Path(join) / "evacuation.csv"), join
+        except InputError as err:   # this run's levels are written all the same
+            mismatch = InputError(err.file, err.key, err.value, f"{err.message}; not joined, {kept}")
     with replaced(out_dir / "evacuation.csv", sync=True) as tmp, open(tmp, "w", newline="") as f:
         writer = csv.DictWriter(f, list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
-    failed = [(describe(t), r["failed"]) for t, r in zip(tasks, results) if r is not None and "failed" in r]
-    text = report(base, rows, names, overrides) + "".join(f"\nfailed: {name}: {reason}" for name, reason in failed)
+    text = report(base, rows, names, overrides, joined_from) + "".join(
+        f"\nfailed: {name}: {reason}" for name, reason in failed)
     write_text(out_dir / "evacuation.md", text, sync=True)
-    kept = f"the finished levels kept in {out_dir}/evacuation.md and evacuation.csv"
+    if mismatch is not None:
+        raise mismatch
     if stopped is not None:
         raise Interrupted(kept) from None
     if failed:
@@ -142,7 +161,56 @@ def _finished(result) -> bool:
     return result is not None and "failed" not in result
 
 
-def report(case, rows, names, overrides=()) -> str:
+def read_levels(directory, series, names, out_dir) -> list:
+    """The levels of an earlier evacuation-times study (its evacuation.csv) to join with this one's: the same
+    columns (shares), series of this study, every level finished. Read before this study runs; not its own --out,
+    which the run clears."""
+    file = Path(directory) / "evacuation.csv"
+    if Path(directory).resolve() == Path(out_dir).resolve():
+        raise InputError(file, "--join", str(directory), "is this study's own --out, which the run clears: "
+                         "write the new levels to another directory")
+    if not file.is_file():
+        raise InputError(file, None, None, not_a_file(file, "evacuation.csv of an evacuation-times study"))
+    columns = [*LEVEL_COLUMNS, *(f"t {n}" for n in names)]
+    with open(file, newline="") as f:
+        reader = csv.DictReader(f)
+        if reader.fieldnames != columns:
+            raise InputError(file, "columns", reader.fieldnames, f"expected this study's, {columns} (the same "
+                             "time.empty_fraction)")
+        try:
+            rows = [{k: v if k in TEXT else int(v) if k in WHOLE else float(v) for k, v in row.items()}
+                    for row in reader]
+        except (TypeError, ValueError) as err:
+            raise InputError(file, f"line {reader.line_num}", None, f"not a number: {err}") from None
+    for r in rows:
+        if r["series"] not in series:
+            raise InputError(file, "series", r["series"], f"not a series of this study ({', '.join(sorted(series))})")
+        if not math.isfinite(r["h"]):
+            raise InputError(file, f"level {r['level']}", r["mesh"], "has no times: run it again rather than join it")
+    return rows
+
+
+def joined(earlier, rows, file) -> list:
+    """This study's levels and an earlier study's, per series from the coarsest mesh to the finest, numbered
+    again. A mesh run in both must have the same steps and times to the bit (the same case and settings);
+    this run's row is kept."""
+    mine = {(r["series"], r["mesh"]): r for r in rows}
+    measured = ["steps"] + [k for k in rows[0] if k.startswith("t ")]
+    for r in earlier:
+        again = mine.get((r["series"], r["mesh"]))
+        if again is not None and not np.array_equal([again[k] for k in measured], [r[k] for k in measured],
+                                                    equal_nan=True):
+            raise InputError(file, f"level {r['level']}", r["mesh"], "has other steps or times than this run on "
+                             "the same mesh: not the same case or settings")
+    merged = [r for r in earlier if (r["series"], r["mesh"]) not in mine] + rows
+    levels = []
+    for series in dict.fromkeys(r["series"] for r in rows):
+        mesh_order = sorted((r for r in merged if r["series"] == series), key=lambda r: -r["h"])
+        levels += [{**r, "level": k} for k, r in enumerate(mesh_order)]
+    return levels
+
+
+def report(case, rows, names, overrides=(), join=None) -> str:
     """The markdown tables: per series, per level the times; then per share the differences and orders."""
     lines = [f"# Evacuation times under refinement: {case['title'] or case.directory.name}", "",
              f"Case `{os.path.relpath(case.file)}`. Times (s) at which each share of the crowd is out; "
@@ -150,6 +218,8 @@ def report(case, rows, names, overrides=()) -> str:
              "of the converged time.", ""]
     if overrides:
         lines += ["Overrides of the case (--settings, then --set): " + ", ".join(f"`{o}`" for o in overrides), ""]
+    if join is not None:
+        lines += [f"With the levels of `{os.path.join(join, 'evacuation.csv')}` (--join).", ""]
     for series in dict.fromkeys(r["series"] for r in rows):
         mine = [r for r in rows if r["series"] == series]
         lines += [f"## {series}", ""]

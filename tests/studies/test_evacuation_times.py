@@ -200,3 +200,49 @@ def test_the_fast_step_keeps_the_invariants_and_empties_with_the_recommended_ste
     assert fast.summary["remaining_fraction"] < 1e-4
     assert fast.summary["evacuation_time"] == pytest.approx(explicit.summary["evacuation_time"], rel=0.01)
     assert 3 * fast.summary["steps"] < explicit.summary["steps"]
+
+
+
+def lwr_fan_study(out, *options):
+    """`evacuation-times` on cases/lwr-fan with the recommended settings to t = 6 s (everyone out in about 5 s)
+    with `options`, written to `out`: (the command's result, the rows of evacuation.csv)."""
+    result = CliRunner().invoke(main, ["evacuation-times", str(CASES / "lwr-fan"), "--serial", "-q", "--settings",
+                                       "recommended", "--set", "time.end=6", *options, "--out", str(out)])
+    rows = list(csv.DictReader(open(out / "evacuation.csv"))) if (out / "evacuation.csv").is_file() else []
+    return result, rows
+
+
+def test_a_finer_level_joined_with_an_earlier_study_tabulates_as_one_series(tmp_path):
+    """Levels 0-1, then 1-2 joined with them: the levels, steps and times of one three-level run to the bit (level
+    1, run twice, checked), and its table of differences, orders and Richardson's estimates."""
+    one, first, both = (lwr_fan_study(tmp_path / name, *options) for name, options in (
+        ("one", ["--levels", "3"]), ("first", ["--levels", "2"]),
+        ("both", ["--levels", "2", "--set", "mesh.refine=1", "--join", str(tmp_path / "first")])))
+    assert [r.exit_code for r, _ in (one, first, both)] == [0, 0, 0], both[0].output
+
+    def measured(rows):
+        return [{k: v for k, v in r.items() if k not in ("wall_seconds", "cpu_seconds")} for r in rows]
+
+    def orders(name):
+        return (tmp_path / name / "evacuation.md").read_text().split("| share out |")[1]
+    assert len(one[1]) == 3 and measured(both[1]) == measured(one[1])
+    assert orders("both") == orders("one") and "(0.8" in orders("one")    # the 50 % time's order
+    assert "first/evacuation.csv` (--join)" in (tmp_path / "both" / "evacuation.md").read_text()
+
+
+def test_a_join_with_other_settings_is_refused_and_the_new_levels_kept(tmp_path):
+    """Level 1 run in both, first at another CFL number: one line naming the earlier file, the level and its mesh,
+    exit 2, and this run's two levels written alone; a missing study or this study's own --out: refused before
+    any run, the earlier study left as it was."""
+    lwr_fan_study(tmp_path / "first", "--levels", "2", "--set", "time.cfl=0.5")
+    result, rows = lwr_fan_study(tmp_path / "both", "--levels", "2", "--set", "mesh.refine=1",
+                                 "--join", str(tmp_path / "first"))
+    assert result.exit_code == 2 and result.stderr.count("\n") == 1 and "Traceback" not in result.output
+    assert f"{tmp_path / 'first' / 'evacuation.csv'}: level 1 = 'channel_exit_right.msh refine 1'" in result.stderr
+    assert "not joined" in result.stderr
+    assert [r["mesh"] for r in rows] == ["channel_exit_right.msh refine 1", "channel_exit_right.msh refine 2"]
+    for join, out, says in (("none", "new", "not found"), ("first", "first", "own --out")):
+        result, _ = lwr_fan_study(tmp_path / out, "--levels", "2", "--join", str(tmp_path / join))
+        assert result.exit_code == 2 and result.output.count("\n") == 1 and says in result.output, result.output
+    assert not (tmp_path / "new").exists()
+    assert len(list(csv.DictReader(open(tmp_path / "first" / "evacuation.csv")))) == 2
