@@ -44,6 +44,8 @@ LAST = 0.5
 #: the columns of evacuation.csv before the times; the text ones, the whole numbers
 LEVEL_COLUMNS = ("series", "level", "mesh", "cfl", "cells", "h", "steps", "wall_seconds", "cpu_seconds", "flow")
 TEXT, WHOLE = ("series", "mesh"), ("level", "cells", "steps")
+#: the columns a run measures (0 or nan for a level that did not finish)
+MEASURED = LEVEL_COLUMNS[4:]
 
 
 def evacuation_times(time, evacuated, total, shares) -> list:
@@ -128,9 +130,7 @@ def study(case_dir, levels: int, out=None, overrides=(), cfls=(), set_values=(),
     except StudyInterrupted as stop:
         results, stopped = stop.results, stop
     rows = [{"series": t.series, "level": t.level, "mesh": t.mesh, "cfl": t.cfl,
-             **({k: r[k] for k in ("cells", "h", "steps", "wall_seconds", "cpu_seconds", "flow")} if _finished(r) else
-                {"cells": 0, "h": math.nan, "steps": 0, "wall_seconds": math.nan, "cpu_seconds": math.nan,
-                 "flow": math.nan}),
+             **({k: r[k] for k in MEASURED} if _finished(r) else {k: 0 if k in WHOLE else math.nan for k in MEASURED}),
              **{f"t {name}": v for name, v in zip(names, r["times"] if _finished(r) else [math.nan] * len(names))}}
             for t, r in zip(tasks, results)]
     failed = [(describe(t), r["failed"]) for t, r in zip(tasks, results) if r is not None and "failed" in r]
