@@ -55,24 +55,20 @@ NEAR_POST = 0.5   # m
 
 
 def prototype(name):
-    """LWRTransport.flows with the facet flux `name` (module docstring); None: the shipped one."""
+    """What makes the shipped LWRTransport.flows carry the facet flux `name` (module docstring) once a transport is
+    built: its non-Godunov branch, or its Godunov branch with the law's supply made infinite (and its demand made
+    g, for "sender"); None: the shipped flux. The step is the shipped flux's, computed before."""
     if name == "godunov":
         return None
-    # of the law, the sender's density and the receiver's
-    law_flux = {"downstream": lambda law, sent, received: sent * law(received),
-                "demand": lambda law, sent, received: law.demand(sent),
-                "sender": lambda law, sent, received: law.flux(sent)}[name]
 
-    def flows(self, rho, total=None, which=slice(None)):
-        total = rho if total is None else total
-        seen = np.append(total, 0.0)
-        sender = self.sender[which]
-        flux = law_flux(self.law, seen[sender], seen[self.receiver[which]])
-        if total is not rho:
-            with np.errstate(invalid="ignore", divide="ignore"):
-                flux *= np.where(total[sender] > 0, rho[sender] / total[sender], 0.0)
-        return flux * self.rate[which]
-    return flows
+    def adjust(transport):
+        if name == "downstream":
+            transport.godunov = False
+            return
+        transport.law.supply = lambda rho: np.full(np.shape(rho), np.inf)
+        if name == "sender":
+            transport.law.demand = transport.law.flux
+    return adjust
 
 
 def measure(scene, level, crowd, law):
@@ -130,9 +126,14 @@ def main():
     parser.add_argument("--law", help="the speed law instead of the recommended one (a name or an expression)")
     parser.add_argument("--flux", choices=("godunov", "downstream", "demand", "sender"), default="godunov")
     args = parser.parse_args()
-    flows = prototype(args.flux)
-    if flows is not None:
-        LWRTransport.flows = flows
+    adjust = prototype(args.flux)
+    if adjust is not None:
+        shipped = LWRTransport.__init__
+
+        def init(self, *args, **kwargs):
+            shipped(self, *args, **kwargs)
+            adjust(self)
+        LWRTransport.__init__ = init
     plan = {"size": 0.25, "outer": {"points": [[0, 0], [SIDE, 0], [SIDE, SIDE], [0, SIDE]]},
             "exits": [{"name": "exit", "from": [SIDE, LOW], "to": [SIDE, HIGH]}]}
     scene = fc.Scene(plan)
