@@ -6,7 +6,8 @@ at 2.5 persons/m^2 in 1 < x < 3 across the room (`--crowd all`): 12 in front of 
 1.8 < y < 4.2) and 18 in the two wedges beside it (population "wedge"), whose shortest paths all end at a door
 post. `--crowd front` / `wedge` keeps one of them; `--crowd block` is a saturated 1 m x 1 m block against the
 wall beside the lower post, alone; `--crowd blob` a smooth crowd of 3.2 people in the lower wedge (a Gaussian of
-peak 3 persons/m^2 at (2, 0.9)). The settings are the recommended ones of the density model
+peak 3 persons/m^2 at (2, 0.9)). `--exit wall` makes the whole wall x = 6 the exit (no door post: what drifts
+there is the scheme's, not the door's). The settings are the recommended ones of the density model
 (femcrowd/studies/recommended.py MACRO at FREE_SPEED: Predtechenskii and Milinskii's law, slip walls, cfl 1);
 `--law` replaces the law (a name or an expression in rho; "constant" is the paper's model at the same speed).
 
@@ -27,6 +28,7 @@ shipped flux; rho <= 1 is the projection's (f(1) > 0 for the laws measured).
     python benchmarks/flush_door.py --levels 0,1,2 --flux demand
     python benchmarks/flush_door.py --levels 0,1,2 --law constant
     python benchmarks/flush_door.py --levels 0,1,2 --crowd block
+    python benchmarks/flush_door.py --levels 0,1,2,3 --crowd front --exit wall
 """
 
 import argparse
@@ -124,6 +126,8 @@ def main():
     parser.add_argument("--levels", default="0,1,2", help="the mesh.refine levels, comma-separated")
     parser.add_argument("--crowd", choices=sorted(CROWDS), default="all")
     parser.add_argument("--law", help="the speed law instead of the recommended one (a name or an expression)")
+    parser.add_argument("--exit", choices=("door", "wall"), default="door",
+                        help="the 2.4 m door flush with the wall x = 6, or that whole wall")
     parser.add_argument("--flux", choices=("godunov", "downstream", "demand", "sender"), default="godunov")
     args = parser.parse_args()
     adjust = prototype(args.flux)
@@ -135,9 +139,10 @@ def main():
             adjust(self)
         LWRTransport.__init__ = init
     plan = {"size": 0.25, "outer": {"points": [[0, 0], [SIDE, 0], [SIDE, SIDE], [0, SIDE]]},
-            "exits": [{"name": "exit", "from": [SIDE, LOW], "to": [SIDE, HIGH]}]}
+            "exits": [{"name": "exit", "from": [SIDE, LOW if args.exit == "door" else 0.0],
+                       "to": [SIDE, HIGH if args.exit == "door" else SIDE]}]}
     scene = fc.Scene(plan)
-    print(f"crowd {args.crowd}, law {args.law or MACRO['velocity.speed_law']}, flux {args.flux}")
+    print(f"exit {args.exit}, crowd {args.crowd}, law {args.law or MACRO['velocity.speed_law']}, flux {args.flux}")
     print("level | cells | steps | CPU (s) | flow (persons/s) | t50 by population (s) | saturated (m^2) | "
           "projection unknowns | near-post cells with phi > 0 | across the shadow's edge: transport, pressure")
     for level in map(int, args.levels.split(",")):
