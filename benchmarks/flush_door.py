@@ -24,21 +24,31 @@ the laws whose g has several humps), "demand" (q_e D(rho_K): no supply limit, th
 rho <= 1), "sender" (q_e g(rho_K): the upwind flux of the sender's speed). The time step stays that of the
 shipped flux; rho <= 1 is the projection's (f(1) > 0 for the laws measured).
 
+`--fan R` swaps the desired direction for a prototype too: within walking distance R of the exit it is the
+steepest descent of the harmonic phi (Laplace's equation, phi = 0 on the exit, phi = d where d >= R, no flux at
+the walls) instead of the distance d, so that the crowd beside the door spreads over its width instead of
+heading for the post. On {d = R} both gradients are normal to the level set, so the direction is continuous.
+
     python benchmarks/flush_door.py --levels 0,1,2
     python benchmarks/flush_door.py --levels 0,1,2 --flux demand
     python benchmarks/flush_door.py --levels 0,1,2 --law constant
     python benchmarks/flush_door.py --levels 0,1,2 --crowd block
     python benchmarks/flush_door.py --levels 0,1,2,3 --crowd front --exit wall
+    python benchmarks/flush_door.py --levels 0,1,2,3 --crowd blob --fan 2.4
 """
 
 import argparse
 import time
 
 import numpy as np
+import scipy.sparse.linalg
+import skfem
+from skfem.models.poisson import laplace
 
 import femcrowd.api as fc
 from femcrowd.driver.run import Simulation
 from femcrowd.macro.transport.lwr import LWRTransport
+from femcrowd.macro.velocity import ExitsVelocity
 from femcrowd.studies.recommended import FREE_SPEED, MACRO
 from femcrowd.studies.validation import flow
 
@@ -71,6 +81,28 @@ def prototype(name):
         if name == "sender":
             transport.law.demand = transport.law.flux
     return adjust
+
+
+def fanned(radius):
+    """ExitsVelocity.cells with the prototype direction of `--fan` (module docstring), one set of exits."""
+    shipped = ExitsVelocity.cells
+
+    def cells(self, exits):
+        heading = self._heading(exits)
+        if heading not in self._cells:
+            edges = self._edges(exits, heading)
+            d = self.eikonal.solve_each([edges], self._costed(exits, self.cost))[0]
+            stiffness = laplace.assemble(skfem.Basis(self.domain.mesh, skfem.ElementTriP1()))
+            free = np.isfinite(d) & (d < radius)
+            free[np.unique(edges)] = False
+            phi = d.copy()
+            rhs = -stiffness[free][:, ~free] @ d[~free]
+            phi[free] = scipy.sparse.linalg.spsolve(stiffness[free][:, free].tocsc(), rhs)
+            self.distance[heading] = phi
+            self._cells[heading] = self._down(self.domain.gradient(phi), exits,
+                                              phi[self.domain.triangles].mean(axis=1))
+        return shipped(self, exits)
+    return cells
 
 
 def measure(scene, level, crowd, law):
@@ -128,6 +160,8 @@ def main():
     parser.add_argument("--law", help="the speed law instead of the recommended one (a name or an expression)")
     parser.add_argument("--exit", choices=("door", "wall"), default="door",
                         help="the 2.4 m door flush with the wall x = 6, or that whole wall")
+    parser.add_argument("--fan", type=float, default=0.0,
+                        help="a harmonic direction within this walking distance of the exit (m; 0: the shipped one)")
     parser.add_argument("--flux", choices=("godunov", "downstream", "demand", "sender"), default="godunov")
     args = parser.parse_args()
     adjust = prototype(args.flux)
@@ -138,11 +172,14 @@ def main():
             shipped(self, *args, **kwargs)
             adjust(self)
         LWRTransport.__init__ = init
+    if args.fan > 0:
+        ExitsVelocity.cells = fanned(args.fan)
     plan = {"size": 0.25, "outer": {"points": [[0, 0], [SIDE, 0], [SIDE, SIDE], [0, SIDE]]},
             "exits": [{"name": "exit", "from": [SIDE, LOW if args.exit == "door" else 0.0],
                        "to": [SIDE, HIGH if args.exit == "door" else SIDE]}]}
     scene = fc.Scene(plan)
-    print(f"exit {args.exit}, crowd {args.crowd}, law {args.law or MACRO['velocity.speed_law']}, flux {args.flux}")
+    print(f"exit {args.exit}, crowd {args.crowd}, law {args.law or MACRO['velocity.speed_law']}, flux {args.flux}, "
+          f"fan {args.fan or 'none'}")
     print("level | cells | steps | CPU (s) | flow (persons/s) | t50 by population (s) | saturated (m^2) | "
           "projection unknowns | near-post cells with phi > 0 | across the shadow's edge: transport, pressure")
     for level in map(int, args.levels.split(",")):
