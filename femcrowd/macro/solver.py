@@ -67,7 +67,8 @@ class MacroSolver:
         self.laws = [None if law is None or law.constant else law for law in (laws or [None] * len(self.velocities))]
         #: False when every population has f(1) = 0 and the LWR step is explicit: the density stays <= 1
         #: without the projection
-        self.needs_projection = transport in IMPLICIT or any(law is None or law.saturates for law in self.laws)
+        self.implicit = transport in IMPLICIT
+        self.needs_projection = self.implicit or any(law is None or law.saturates for law in self.laws)
         self.transport_class = TRANSPORTS[transport]
         self.lwr_class = LWR_TRANSPORTS.get(transport, LWRTransport)
         self.cfl, self.fixed_dt, self.quantile = cfl, dt, quantile
@@ -132,6 +133,16 @@ class MacroSolver:
         if self.fixed_dt is None:
             return self.cfl * min(min(s.courant_dt(self.quantile) for s in schemes), joint)
         return min(self.fixed_dt, min(s.max_cfl * s.max_dt for s in schemes), joint)
+
+    def drain(self, state: MacroState, dt: float) -> np.ndarray | None:
+        """(populations, cells): the room the coming implicit prediction makes in each cell at saturation, tau
+        omega_K out_K (the transports' ``drain``), which a source's cell adds to |K| (1 - rho_K) (macro/inflow.py);
+        None for an explicit transport, whose fluxes carry the density at the step's start."""
+        if not self.implicit:
+            return None
+        schemes = self.transports(state, self.boundary.at(state.t))
+        return np.array([scheme.drain(rho, dt, *extra)
+                         for scheme, rho, extra in zip(schemes, state.rho, self._seen(state, schemes))])
 
     def step(self, state: MacroState, until: float = np.inf) -> MacroStep:
         """Advance the state by one step, not beyond time ``until`` (a shorter step lands on it: the controller

@@ -51,6 +51,12 @@ class ImplicitUpwindTransport(UpwindTransport):
         np.maximum(rho_t, 0.0, out=rho_t)  # the inverse is >= 0: only round-off is clipped
         return Prediction(rho_t, dt * (self.exit_rate @ rho_t), self._carried(rho_t, dt, self.capped))
 
+    def drain(self, rho: np.ndarray, dt: float) -> np.ndarray:
+        """tau out_K per cell, the room the step makes in K at saturation (sources, macro/inflow.py): with an
+        arrival a added to rho_K and no upstream inflow, rho~_K = (rho_K + a / |K|) / (1 + tau out_K / |K|), the
+        density the fluxes carry, at most 1 while a <= |K| (1 - rho_K) + tau out_K."""
+        return dt * self.domain.area / self.cell_dt
+
     def facet_flux(self, rho: np.ndarray, dt: float, facets=slice(None)) -> np.ndarray:
         """The mass each facet (of `facets`) carries in the step of rho by dt: the upwind fluxes of the new density
         rho~ (for measurement lines; it solves the step again, so step() keeps its cost when nobody measures)."""
@@ -127,6 +133,15 @@ class ImplicitLWRTransport(LWRTransport):
         rho_t = self.flow_order.solve(area / dt + share * out, -speed[inner] * share[sender], b - explicit * out * rho)
         np.maximum(rho_t, 0.0, out=rho_t)   # the inverse is >= 0: only round-off is clipped
         return rho_t
+
+    def drain(self, rho, dt, total=None) -> np.ndarray:
+        """tau omega_K out_K per cell, the room the step makes in K at saturation (sources, macro/inflow.py): with an
+        arrival a added to rho_K and no upstream inflow, the density carried out of K is
+        y_K = (rho_K + a / |K|) / (1 + tau omega_K out_K / |K|) (solve), at most 1 while
+        a <= |K| (1 - rho_K) + tau omega_K out_K; 0 in the explicit cells (omega_K = 0), as the explicit step's
+        room."""
+        speed = self.speeds(rho, total)
+        return dt * self.share(dt, speed) * np.bincount(self.sender, speed, self.domain.ncells)
 
     def prediction(self, rho, rho_t, dt, speed, share) -> Prediction:
         """The Prediction of rho~ (from rho) carried by these speeds: the mass out through each exit and across
