@@ -225,9 +225,9 @@ def stream(tmp_path_factory):
 def test_a_steady_stream_from_a_source_is_as_dense_as_its_flow_and_speed_make_it(stream, step):
     """A free stream of flow q at speed v has the density q / v (0.769 here): downstream of the entrance
     (3 < x < 9, reached by t = 7 s) the run holds it within 2 % at t = 15 s whatever the step. Everyone who
-    arrived entered (inflow = q |entrance| t exactly, nothing queued): an implicit step's fluxes carry the density
-    at its end, so a source's cell takes |K| (1 - rho_K) + tau omega_K out_K (macro/inflow.py), not only its free
-    space at the step's start (docs/scenes.md, "Sources at a large step")."""
+    arrived entered (inflow = q |entrance| t exactly, nothing queued): an implicit step takes the arrivals in its
+    solve, and a source's cell takes what the step carries out of it as well as its free space at the step's start
+    (macro/inflow.py; docs/scenes.md, "Sources at a large step")."""
     line = {"measure.lines": [{"name": "near", "from": [1.0, 0.0], "to": [1.0, 2.0]}]}
     simulation = Simulation(load_case(stream, {**step, **line}))
     result = simulation.run(stop_when_empty=False)
