@@ -107,6 +107,8 @@ class Capacities:
         and its nodes in the kernel, as a closed room (macro/projection/rooms.py)."""
         n = self.ncells
         inner = np.flatnonzero(self.receiver >= 0)
+        if not inner.size:   # exits only: each door node is a leaf of the room it lets people out of
+            return A
         node = n + np.arange(self.nodes)
         across = self.receiver[self.node_facet] >= 0
         into = np.where(self.node_sign > 0, self.receiver[self.node_facet], self.sender[self.node_facet])[across]
