@@ -67,7 +67,8 @@ class MacroSolver:
         self.laws = [None if law is None or law.constant else law for law in (laws or [None] * len(self.velocities))]
         #: False when every population has f(1) = 0 and the LWR step is explicit: the density stays <= 1
         #: without the projection
-        self.needs_projection = transport in IMPLICIT or any(law is None or law.saturates for law in self.laws)
+        self.implicit = transport in IMPLICIT
+        self.needs_projection = self.implicit or any(law is None or law.saturates for law in self.laws)
         self.transport_class = TRANSPORTS[transport]
         self.lwr_class = LWR_TRANSPORTS.get(transport, LWRTransport)
         self.cfl, self.fixed_dt, self.quantile = cfl, dt, quantile
@@ -80,6 +81,7 @@ class MacroSolver:
         self._open = None         # the open exits of the last projection (a door that changed: no warm start)
         self._cell_mean = None    # the RT0 cell means of all cells (the output velocity), assembled once
         self._normals = {}        # per CellMean: (exits, the velocities' versions, U_i . n on its facets)
+        self._source = None       # the density arriving in the coming implicit prediction (add_source)
 
     def transports(self, state: MacroState, exits) -> list:
         """The transport of each population at the state's time, on these exits."""
@@ -133,6 +135,26 @@ class MacroSolver:
             return self.cfl * min(min(s.courant_dt(self.quantile) for s in schemes), joint)
         return min(self.fixed_dt, min(s.max_cfl * s.max_dt for s in schemes), joint)
 
+    def add_source(self, state: MacroState, density: np.ndarray) -> None:
+        """Arrivals of the coming step, (populations, cells) in density (sources, macro/inflow.py): an explicit
+        prediction carries them from the step's start (added to state.rho, as the paper's scheme); an implicit one
+        takes them in its solve, the term |K| source_K / tau of its right-hand side (a boundary inflow over the
+        step: they enter as the step's fluxes carry people on)."""
+        if self.implicit:
+            self._source = density if self._source is None else self._source + density
+        else:
+            state.rho += density
+
+    def drain(self, state: MacroState, dt: float) -> np.ndarray | None:
+        """(populations, cells): what the coming implicit prediction carries out of each cell when its density ends
+        at 1 (the transports' ``drain``), which a source's cell adds to |K| (1 - rho_K) (macro/inflow.py); None for
+        an explicit transport, whose fluxes carry the density at the step's start."""
+        if not self.implicit:
+            return None
+        schemes = self.transports(state, self.boundary.at(state.t))
+        return np.array([scheme.drain(rho, dt, *extra)
+                         for scheme, rho, extra in zip(schemes, state.rho, self._seen(state, schemes))])
+
     def step(self, state: MacroState, until: float = np.inf) -> MacroStep:
         """Advance the state by one step, not beyond time ``until`` (a shorter step lands on it: the controller
         passes the frame times and the door changes); return its MacroStep."""
@@ -151,6 +173,7 @@ class MacroSolver:
             for hook in self.before_step:
                 hook(self, state, dt)
             rho_tilde, outflow, passed = self._predict(state, schemes, exits, dt)
+            self._source = None
         with self.timers("projection"):   # with the state update and the hooks after it
             result = self._correct_step(state, rho_tilde, outflow, passed, exits, dt, t_new)
             result.seconds = clock.seconds
@@ -172,9 +195,15 @@ class MacroSolver:
         """The Prediction of each population before the doors' cut: with the caps of the interior doors in the
         solve of the implicit transport (transport/capped.py), else each population's step."""
         seen = self._seen(state, schemes)
+        sources = self._sources(state)
         if self._caps_in_solve(exits):
-            return capped_step(schemes, state.rho, dt, seen, exits.caps)[0]
-        return [scheme.step(rho, dt, *extra) for scheme, rho, extra in zip(schemes, state.rho, seen)]
+            return capped_step(schemes, state.rho, dt, seen, exits.caps, sources)[0]
+        return [scheme.step(rho, dt, *extra, **arriving(source))
+                for scheme, rho, extra, source in zip(schemes, state.rho, seen, sources)]
+
+    def _sources(self, state: MacroState) -> list:
+        """The density arriving in the coming prediction per population (add_source), None for none."""
+        return [None] * len(state.rho) if self._source is None else list(self._source)
 
     def _correct_step(self, state, rho_tilde, outflow, passed, exits, dt, t_new) -> MacroStep:
         """The correction of the step and the new state; the step's diagnostics (the after_step hooks run on
@@ -215,8 +244,8 @@ class MacroSolver:
             flux = sum(scheme.facet_flux(rho, dt, *extra, facets=facets, predicted=p.rho)
                        for scheme, rho, extra, p in zip(schemes, state.rho, seen, predictions))
         else:
-            flux = sum(scheme.facet_flux(rho, dt, *extra, facets=facets)
-                       for scheme, rho, extra in zip(schemes, state.rho, seen))
+            flux = sum(scheme.facet_flux(rho, dt, *extra, facets=facets, **arriving(source))
+                       for scheme, rho, extra, source in zip(schemes, state.rho, seen, self._sources(state)))
         if exits.caps is not None:   # the doors' cap of the step (mesh/capacity.py)
             cap = np.zeros(len(self.domain.length))
             cap[exits.caps.facets] = exits.caps.rate * dt
@@ -269,3 +298,9 @@ class MacroSolver:
             kept = self._normals[mean] = (exits, versions,
                                           [v.normal_on_facets(state, exits, mean.facets) for v in self.velocities])
         return kept[2]
+
+
+def arriving(source) -> dict:
+    """The keyword of a prediction for the density arriving in it (an implicit transport's; none: no keyword, as the
+    explicit transports take)."""
+    return {} if source is None else {"source": source}

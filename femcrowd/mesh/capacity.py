@@ -99,6 +99,27 @@ class Capacities:
         total[over] = sign * self.rate[over] * dt
         return total
 
+    def rooms(self, A: sp.spmatrix) -> sp.csr_matrix:
+        """The graph of the rooms: the extended Laplacian A (extend) without its links across the capped interior
+        facets (the two cells, each door node and the cell it lets people into, the two nodes of a facet). Its
+        components are the rooms, each with the door nodes that let people out of it: a room all in S with all
+        those nodes in S (every door at capacity: they push back like walls) has A_SS singular, 1 on the room
+        and its nodes in the kernel, as a closed room (macro/projection/rooms.py)."""
+        n = self.ncells
+        inner = np.flatnonzero(self.receiver >= 0)
+        if not inner.size:   # exits only: each door node is a leaf of the room it lets people out of
+            return A
+        node = n + np.arange(self.nodes)
+        across = self.receiver[self.node_facet] >= 0
+        into = np.where(self.node_sign > 0, self.receiver[self.node_facet], self.sender[self.node_facet])[across]
+        forward, back = self.pairs(n)
+        i = np.concatenate([self.sender[inner], node[across], forward])
+        j = np.concatenate([self.receiver[inner], into, back])
+        cut = sp.csr_matrix((np.ones(len(i)), (i, j)), shape=A.shape)
+        graph = A - A.multiply(cut + cut.T)
+        graph.eliminate_zeros()
+        return graph.tocsr()
+
     def pairs(self, offset: int) -> tuple:
         """(forward, back): the unknowns (door node + offset) of the two door nodes of each capped interior facet."""
         back = np.flatnonzero(self.node_sign < 0)

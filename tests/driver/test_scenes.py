@@ -9,6 +9,7 @@ from femcrowd.driver.measurements import line_facets
 from femcrowd.macro.exact import SaturatedEvacuation
 from femcrowd.mesh.floorplan import build_mesh
 from femcrowd.micro.sampling import HEX_PACKING
+from femcrowd.studies.recommended import FAST_STEP
 
 from ..support import CASES, unit_square
 
@@ -194,6 +195,101 @@ def test_a_macro_run_that_starts_empty_reports_when_its_crowd_left(channel):
     empty = result.summary["final_time"]
     inside = h["mass"] > 1e-4 * h["inflow"]   # time.empty_fraction, the default
     assert 5.5 < t < 8.0 and t == h["time"][np.flatnonzero(inside)[-1] + 1] and empty == t
+
+
+#: the prediction of each kind of step: explicit upwind, the fast step, implicit-godunov and backward Euler at three
+#: times the median cell's CFL step
+STEPS = pytest.mark.parametrize("step", [
+    {}, FAST_STEP,
+    {"scheme.transport": "implicit-godunov", "time.cfl_quantile": 0.5, "time.cfl": 3.0},
+    {"scheme.transport": "implicit", "time.cfl_quantile": 0.5, "time.cfl": 3.0},
+], ids=["upwind", "fast", "implicit-godunov-3", "implicit-3"])
+
+
+@pytest.fixture(scope="module")
+def stream(tmp_path_factory):
+    """A 12 m x 2 m corridor: people arrive at q = 1 /(m s) through its west side and walk at v = 1.3 m/s to the
+    east side, all exit (U = (v, 0))."""
+    here = tmp_path_factory.mktemp("stream")
+    (here / "plan.toml").write_text('size = 0.25\n[outer]\npoints = [[0, 0], [12, 0], [12, 2], [0, 2]]\n'
+                                    '[[exits]]\nname = "entrance"\nfrom = [0, 2]\nto = [0, 0]\n'
+                                    '[[exits]]\nname = "exit"\nfrom = [12, 0]\nto = [12, 2]\n')
+    build_mesh(here / "plan.toml")
+    (here / "case.toml").write_text('[mesh]\nfile = "plan.msh"\n[boundary]\nexits = ["exit"]\n'
+                                    '[velocity]\nspeed = 1.3\n[time]\nend = 15.0\n[output]\nevery = 15.0\n'
+                                    '[[sources]]\nboundary = "entrance"\nflow = 1.0\n')
+    return here
+
+
+@STEPS
+def test_a_steady_stream_from_a_source_is_as_dense_as_its_flow_and_speed_make_it(stream, step):
+    """A free stream of flow q at speed v has the density q / v (0.769 here): downstream of the entrance
+    (3 < x < 9, reached by t = 7 s) the run holds it within 2 % at t = 15 s whatever the step. Everyone who
+    arrived entered (inflow = q |entrance| t exactly, nothing queued): an implicit step takes the arrivals in its
+    solve, and a source's cell takes what the step carries out of it as well as its free space at the step's start
+    (macro/inflow.py; docs/scenes.md, "Sources at a large step")."""
+    line = {"measure.lines": [{"name": "near", "from": [1.0, 0.0], "to": [1.0, 2.0]}]}
+    simulation = Simulation(load_case(stream, {**step, **line}))
+    result = simulation.run(stop_when_empty=False)
+    h = result.history
+    assert h["inflow"][-1] == pytest.approx(1.0 * 2.0 * 15.0, rel=1e-12) and h["queued"].max() == 0.0
+    assert_invariants(h, tol=1e-12)
+    # a line 1 m from the entrance: once steady, q |entrance| per second crosses it
+    count, time = result.measurements["near_count"], result.measurements["time"]
+    assert np.diff(np.interp([10.0, 15.0], time, count))[0] == pytest.approx(1.0 * 2.0 * 5.0, rel=1e-6)
+    domain, rho = simulation.model.solver.domain, simulation.model.state.density
+    x = domain.centroid[:, 0]
+    downstream = (x > 3.0) & (x < 9.0)
+    held = np.sum(domain.area[downstream] * rho[downstream]) / np.sum(domain.area[downstream])
+    assert held == pytest.approx(1.0 / 1.3, rel=2e-2)
+
+
+@STEPS
+def test_a_source_behind_a_jam_queues_outside_at_any_step(tmp_path, step):
+    """The same corridor, 6 m long, emptied by a 0.5 m exit of capacity 0.5 /(m s): the jam fills it back to the
+    entrance, and what cannot enter waits outside. The room an implicit step adds to a source's cell is bounded by
+    the free space of the rest of its part of the floor: the corridor never holds more than its 12 m^2, and
+    arrived = inflow + queued to round-off."""
+    (tmp_path / "plan.toml").write_text('size = 0.25\n[outer]\npoints = [[0, 0], [6, 0], [6, 2], [0, 2]]\n'
+                                        '[[exits]]\nname = "entrance"\nfrom = [0, 2]\nto = [0, 0]\n'
+                                        '[[exits]]\nname = "exit"\nfrom = [6, 0.75]\nto = [6, 1.25]\n')
+    build_mesh(tmp_path / "plan.toml")
+    (tmp_path / "case.toml").write_text('[mesh]\nfile = "plan.msh"\n[boundary]\nexits = ["exit"]\n'
+                                        '[boundary.capacity]\nexit = 0.5\n[velocity]\nspeed = 1.3\n'
+                                        '[time]\nend = 20.0\n[output]\nevery = 20.0\n'
+                                        '[[sources]]\nboundary = "entrance"\nflow = 1.0\n')
+    h = macro_run(tmp_path, step).history
+    assert_invariants(h, tol=1e-12)
+    assert h["mass"].max() <= 12.0 * (1 + 1e-12) and h["mass"][-1] > 11.9
+    assert h["queued"][-1] > 15.0
+    np.testing.assert_allclose(h["inflow"] + h["queued"], 2.0 * h["time"], rtol=1e-12)
+    assert h["evacuated"][-1] <= 0.25 * 20.0 * (1 + 1e-12)   # the exit passes its capacity, no more
+
+
+@pytest.mark.parametrize("door", [0.5, 0.75])
+@pytest.mark.parametrize("step", [{}, FAST_STEP], ids=["upwind", "fast"])
+def test_a_source_behind_a_door_at_capacity_fills_its_room_then_queues(tmp_path, step, door):
+    """The corridor of `stream`, 6 m long, with an interior door of capacity 0.5 /(m s) at x = `door`: the 2 /s
+    arriving fill the room in front of the door, which then passes exactly its 1 /s (at the fast step the cap is
+    in the solve, macro/transport/capped.py) and the rest waits outside; arrived = inflow + queued and the
+    invariants to round-off. The room, saturated with its only door at capacity, is a closed room of the
+    projection (its door nodes push back like walls: Capacities.rooms); the door at 0.75 m stopped the run with
+    a singular factorisation at either step."""
+    (tmp_path / "plan.toml").write_text('size = 0.25\n[outer]\npoints = [[0, 0], [6, 0], [6, 2], [0, 2]]\n'
+                                        '[[exits]]\nname = "entrance"\nfrom = [0, 2]\nto = [0, 0]\n'
+                                        '[[exits]]\nname = "exit"\nfrom = [6, 0]\nto = [6, 2]\n'
+                                        f'[[doors]]\nname = "door"\nfrom = [{door}, 0]\nto = [{door}, 2]\n')
+    build_mesh(tmp_path / "plan.toml")
+    (tmp_path / "case.toml").write_text('[mesh]\nfile = "plan.msh"\n[boundary]\nexits = ["exit"]\n'
+                                        '[boundary.capacity]\ndoor = 0.5\n[velocity]\nspeed = 1.3\n'
+                                        '[time]\nend = 6.5\n[output]\nevery = 6.5\n'
+                                        '[[sources]]\nboundary = "entrance"\nflow = 1.0\n')
+    h = macro_run(tmp_path, step).history
+    assert_invariants(h, tol=1e-12)
+    np.testing.assert_allclose(h["inflow"] + h["queued"], 2.0 * h["time"], rtol=1e-12)
+    assert h["flow_door"].max() <= 1.0 * (1 + 1e-12)
+    late = h["time"] > 3.0
+    assert np.allclose(h["flow_door"][late], 1.0, rtol=1e-9) and h["queued"][-1] > 3.0
 
 
 # --- measurements ---------------------------------------------------------------------------------

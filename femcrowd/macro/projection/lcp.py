@@ -87,7 +87,7 @@ class Projection:
         self.tol = tol
         self.direct_max = direct_max
         has_exit = np.bincount(domain.f2t[0][free], minlength=len(self.area)) > 0
-        self.rooms = ClosedRooms(self.A, has_exit)
+        self.rooms = ClosedRooms(self.A if caps is None else caps.rooms(self.A), has_exit)
         self.sets = CellSets(len(self.area))
         self.solver = SaturatedSolver(self.A, self.area, direct_max, order or CellOrder(), self.sets, reuse,
                                       node_cell)

@@ -45,18 +45,21 @@ SWEEPS = 50
 TOL = 1e-13
 
 
-def capped_step(schemes, rho, dt, seen, caps) -> tuple[list, int]:
+def capped_step(schemes, rho, dt, seen, caps, sources=None) -> tuple[list, int]:
     """The Prediction of each population (ImplicitLWRTransport `schemes`, densities `rho`, the extra argument
-    `seen` of each: the total density its law sees) with the caps of the interior doors among `caps`
-    (mesh/capacity.py Capacities) in the solve, and the number of sweeps."""
+    `seen` of each: the total density its law sees, the density arriving during the step in `sources`, None for
+    none) with the caps of the interior doors among `caps` (mesh/capacity.py Capacities) in the solve, and the
+    number of sweeps."""
     m = len(caps.facets)
+    sources = [None] * len(schemes) if sources is None else sources
     theta, direction = np.ones(m), np.zeros(m)   # direction: +1 the flows f2t[0] -> f2t[1] scaled, -1 back, 0 free
     speeds = [scheme.speeds(r, *extra) for scheme, r, extra in zip(schemes, rho, seen)]
     shares = [scheme.share(dt, speed) for scheme, speed in zip(schemes, speeds)]   # of the unscaled speeds
     for sweep in range(1, SWEEPS + 1):
         scaled = [_scaled(scheme, speed, theta, direction) for scheme, speed in zip(schemes, speeds)]
-        rho_t = [scheme.solve(r, dt, speed, share) for scheme, r, speed, share in zip(schemes, rho, scaled, shares)]
-        new_theta, new_direction = _factors(schemes, rho, rho_t, dt, speeds, scaled, shares, caps.rate)
+        rho_t = [scheme.solve(r, dt, speed, share, source)
+                 for scheme, r, speed, share, source in zip(schemes, rho, scaled, shares, sources)]
+        new_theta, new_direction = _factors(schemes, rho, rho_t, dt, speeds, scaled, shares, caps.rate, sources)
         settled = np.array_equal(new_direction, direction) and np.all(np.abs(new_theta - theta) <= TOL)
         theta, direction = new_theta, new_direction
         if settled:
@@ -76,14 +79,14 @@ def _scaled(scheme, speed, theta, direction):
     return scaled
 
 
-def _factors(schemes, rho, rho_t, dt, speeds, scaled, shares, rate):
+def _factors(schemes, rho, rho_t, dt, speeds, scaled, shares, rate, sources):
     """The factor theta and the active direction of each capped facet from a solve (rho~ of each population with
-    the `scaled` speeds and the implicit `shares` omega): per door flow of each population the terms (facet, sign,
-    s, B, D, omega) of the sender's row, the flow at theta = 1 each way, then Newton's iteration on the active
-    facets."""
+    the `scaled` speeds, the implicit `shares` omega and the arriving density of `sources`): per door flow of each
+    population the terms (facet, sign, s, B, D, omega) of the sender's row, the flow at theta = 1 each way, then
+    Newton's iteration on the active facets."""
     m = len(rate)
     terms = []
-    for scheme, r, x, speed, current, share in zip(schemes, rho, rho_t, speeds, scaled, shares):
+    for scheme, r, x, speed, current, share, source in zip(schemes, rho, rho_t, speeds, scaled, shares, sources):
         n, area = len(r), scheme.domain.area
         inner = scheme.inner
         inflow = np.bincount(scheme.receiver[inner], current[inner] * carried(r, x, share)[scheme.sender[inner]], n)
@@ -93,6 +96,8 @@ def _factors(schemes, rho, rho_t, dt, speeds, scaled, shares, rate):
         sender = scheme.sender[flows]
         omega, rest = share[sender], others[sender] - current[flows]   # rest: the rates leaving but e's
         kept = area[sender] * r[sender] / dt - (1.0 - omega) * rest * r[sender]
+        if source is not None:   # arrivals enter the implicit part (ImplicitLWRTransport.solve)
+            kept = kept + area[sender] * source[sender] / dt
         D = leaving[sender] - omega * current[flows]
         B = omega * (kept + inflow[sender]) + (1.0 - omega) * r[sender] * D
         terms.append((scheme.door_position, scheme.flow_sign[flows], speed[flows], B, D, omega))

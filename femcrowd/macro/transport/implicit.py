@@ -39,22 +39,30 @@ class ImplicitUpwindTransport(UpwindTransport):
         self.order = None if potential is None else np.argsort(-potential, kind="stable")
         self._factors = {}  # dt -> LU of the system, in self.order
 
-    def step(self, rho: np.ndarray, dt: float) -> Prediction:
+    def step(self, rho: np.ndarray, dt: float, source=None) -> Prediction:
         """rho~, the mass that left through each exit during dt and the net mass through the capped door
-        facets (at the new density)."""
+        facets (at the new density); source: the density that arrives during the step (sources, macro/inflow.py),
+        the term |K| source_K / tau of the solve's right-hand side."""
         lu = self._factors.get(dt) or self._factorise(dt)
+        rhs = rho if source is None else rho + source
         if self.order is None:
-            rho_t = lu.solve(rho)
+            rho_t = lu.solve(rhs)
         else:
             rho_t = np.empty_like(rho)
-            rho_t[self.order] = lu.solve(rho[self.order])
+            rho_t[self.order] = lu.solve(rhs[self.order])
         np.maximum(rho_t, 0.0, out=rho_t)  # the inverse is >= 0: only round-off is clipped
         return Prediction(rho_t, dt * (self.exit_rate @ rho_t), self._carried(rho_t, dt, self.capped))
 
-    def facet_flux(self, rho: np.ndarray, dt: float, facets=slice(None)) -> np.ndarray:
+    def drain(self, rho: np.ndarray, dt: float) -> np.ndarray:
+        """tau out_K per cell, what the step carries out of K when rho~_K = 1 (sources, macro/inflow.py): with an
+        arrival a in K and no inflow from upstream, rho~_K = (rho_K + a / |K|) / (1 + tau out_K / |K|) <= 1 while
+        a <= |K| (1 - rho_K) + tau out_K."""
+        return dt * self.domain.area / self.cell_dt
+
+    def facet_flux(self, rho: np.ndarray, dt: float, facets=slice(None), source=None) -> np.ndarray:
         """The mass each facet (of `facets`) carries in the step of rho by dt: the upwind fluxes of the new density
         rho~ (for measurement lines; it solves the step again, so step() keeps its cost when nobody measures)."""
-        return self._carried(self.step(rho, dt).rho, dt, facets)
+        return self._carried(self.step(rho, dt, source).rho, dt, facets)
 
     def _factorise(self, dt):
         M = sp.identity(self.domain.ncells, format="csr") - sp.diags(dt / self.domain.area) @ self.flux
@@ -112,21 +120,33 @@ class ImplicitLWRTransport(LWRTransport):
         """omega_K, the implicit share of the fluxes out of each cell K: 1, backward Euler in every cell."""
         return np.ones(self.domain.ncells)
 
-    def solve(self, rho, dt, speed, share) -> np.ndarray:
+    def solve(self, rho, dt, speed, share, source=None) -> np.ndarray:
         """rho~ of the step whose flow e from K carries speed_e (omega_K rho~_K + (1 - omega_K) rho_K), omega the
         `share` of each cell:
 
             (|K| / tau + omega_K out_K) rho~_K - sum_{L -> K} omega_L speed_e rho~_L
-                = (|K| / tau - (1 - omega_K) out_K) rho_K + sum_{L -> K} (1 - omega_L) speed_e rho_L,
+                = (|K| / tau - (1 - omega_K) out_K) rho_K + |K| source_K / tau
+                  + sum_{L -> K} (1 - omega_L) speed_e rho_L,
 
-        out_K the sum of the speeds leaving K, in the order of the flow."""
+        out_K the sum of the speeds leaving K, source the density arriving during the step (sources,
+        macro/inflow.py: it enters the implicit part, as a boundary inflow), in the order of the flow."""
         n, area, inner = len(rho), self.domain.area, self.inner
         out = np.bincount(self.sender, speed, n)
         sender, explicit = self.sender[inner], 1.0 - share
-        b = rho * area / dt + np.bincount(self.receiver[inner], speed[inner] * (explicit * rho)[sender], n)
+        held = rho if source is None else rho + source
+        b = held * area / dt + np.bincount(self.receiver[inner], speed[inner] * (explicit * rho)[sender], n)
         rho_t = self.flow_order.solve(area / dt + share * out, -speed[inner] * share[sender], b - explicit * out * rho)
         np.maximum(rho_t, 0.0, out=rho_t)   # the inverse is >= 0: only round-off is clipped
         return rho_t
+
+    def drain(self, rho, dt, total=None) -> np.ndarray:
+        """tau out_K (omega_K + (1 - omega_K) rho_K) per cell, what the step carries out of K when rho~_K = 1
+        (sources, macro/inflow.py): with an arrival a in K's solve and no inflow from upstream,
+        rho~_K (|K| + tau omega_K out_K) = |K| rho_K - tau (1 - omega_K) out_K rho_K + a, at most |K| while
+        a <= |K| (1 - rho_K) + tau out_K (omega_K + (1 - omega_K) rho_K)."""
+        speed = self.speeds(rho, total)
+        share = self.share(dt, speed)
+        return dt * np.bincount(self.sender, speed, self.domain.ncells) * (share + (1.0 - share) * rho)
 
     def prediction(self, rho, rho_t, dt, speed, share) -> Prediction:
         """The Prediction of rho~ (from rho) carried by these speeds: the mass out through each exit and across
@@ -137,18 +157,19 @@ class ImplicitLWRTransport(LWRTransport):
                                    len(self.capped))
         return Prediction(rho_t, evacuated, through)
 
-    def step(self, rho, dt, total=None) -> Prediction:
-        """rho~ of this population, the mass that left through each exit during dt and the net mass through the
-        capped door facets (the fluxes of rho~ with the speed of t^n)."""
+    def step(self, rho, dt, total=None, source=None) -> Prediction:
+        """rho~ of this population (with the density `source` arriving during the step, solve), the mass that left
+        through each exit during dt and the net mass through the capped door facets (the fluxes of rho~ with the
+        speed of t^n)."""
         speed = self.speeds(rho, total)
         share = self.share(dt, speed)
-        return self.prediction(rho, self.solve(rho, dt, speed, share), dt, speed, share)
+        return self.prediction(rho, self.solve(rho, dt, speed, share, source), dt, speed, share)
 
-    def facet_flux(self, rho, dt, total=None, facets=slice(None), predicted=None):
+    def facet_flux(self, rho, dt, total=None, facets=slice(None), predicted=None, source=None):
         """The mass each facet (of `facets`) carries f2t[0] -> f2t[1] in the step of rho by dt: the fluxes of rho~
         with the speed of t^n (it solves the step again, as ImplicitUpwindTransport.facet_flux, unless given
         rho~ as `predicted`)."""
-        rho_t = self.step(rho, dt, total).rho if predicted is None else predicted
+        rho_t = self.step(rho, dt, total, source).rho if predicted is None else predicted
         return super().facet_flux(rho_t, dt, rho if total is None else total, facets)
 
 
@@ -172,9 +193,9 @@ class ImplicitGodunovTransport(ImplicitLWRTransport):
     The system (solve) has the pattern of ImplicitLWRTransport's with the rates omega_K q_e a_e >= 0 and a
     right-hand side >= 0: an M-matrix, so rho~ >= 0 and each population's mass is kept at any step; the same order
     of the flow and the same caps in the solve (capped.py). As tau -> 0 (omega = 0 once tau is within every cell's
-    CFL-1 step) the step is the explicit scheme's. With several populations a_e is the same for all (the total's)
-    and omega_K is each one's own. The paper's model (f = 1) takes it too: the upwind scheme, implicit only in the
-    cells whose CFL-1 step the step exceeds."""
+    CFL-1 step) the step is the explicit scheme's, but for a source's arrivals, which enter the solve (inflow.py).
+    With several populations a_e is the same for all (the total's) and omega_K is each one's own. The paper's model
+    (f = 1) takes it too: the upwind scheme, implicit only in the cells whose CFL-1 step the step exceeds."""
 
     every_law = True
 
@@ -196,12 +217,12 @@ class ImplicitGodunovTransport(ImplicitLWRTransport):
         with np.errstate(divide="ignore"):
             return np.maximum(1.0 - self.domain.area / (dt * out), 0.0)
 
-    def facet_flux(self, rho, dt, total=None, facets=slice(None), predicted=None):
+    def facet_flux(self, rho, dt, total=None, facets=slice(None), predicted=None, source=None):
         """The mass each facet (of `facets`) carries f2t[0] -> f2t[1] in the step of rho by dt: the frozen rates
         times the density carried (it solves the step again unless given rho~ as `predicted`)."""
         speed = self.speeds(rho, total)
         share = self.share(dt, speed)
-        rho_t = self.solve(rho, dt, speed, share) if predicted is None else predicted
+        rho_t = self.solve(rho, dt, speed, share, source) if predicted is None else predicted
         which, position, n, inverse = self.across(facets)
         flux = speed[which] * carried(rho, rho_t, share)[self.sender[which]]
         return dt * np.bincount(position, self.flow_sign[which] * flux, n)[inverse]
