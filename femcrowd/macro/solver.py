@@ -66,8 +66,8 @@ class MacroSolver:
         for velocity in self.routing:
             velocity.seen = seen
         self.laws = [None if law is None or law.constant else law for law in (laws or [None] * len(self.velocities))]
-        #: False when every population has f(1) = 0 and the LWR step is explicit: the density stays <= 1
-        #: without the projection
+        #: False when every population has f(1) = 0 and the LWR step is the explicit order-0 one (bounded): the
+        #: density stays <= 1 without the projection
         self.transport_class = TRANSPORTS[transport]
         self.lwr_class = LWR_TRANSPORTS.get(transport, LWRTransport)
         self.needs_projection = (transport in IMPLICIT or not self.lwr_class.bounded

@@ -10,9 +10,10 @@ with r_K,e the total density reconstructed on e from K's side (the sum of the po
 empty outside across an exit), each population taking its share rho_i,K,e / r_K,e of the sender's flux; then
 rho~ = (rho + E(E(rho))) / 2, the second stage's law seeing the first stage's total. A flux is at most
 q_e rho_i,K,e (D(r) <= r), so the reconstruction's positivity limiter keeps rho~ >= 0 at dt <= max_dt; the
-step is cfl <= 0.5 times the LWR transport's CFL step (lwr.py joint_max_dt), as for muscl. The reconstruction
-can exceed the cell values' bounds of the law's supply argument, so rho <= 1 is the projection's, always (even
-when f(1) = 0). Mass is conservative (one flux per facet), the evacuated mass the mean of the stages'.
+step is cfl <= 0.5 times the LWR transport's CFL step (lwr.py joint_max_dt), as for muscl. A receiver's
+reconstructed value can differ from its density, so the supply no longer bounds what enters it: rho <= 1 is the
+projection's, always (even when f(1) = 0). Mass is conservative (one flux per facet), the evacuated mass the
+mean of the stages'.
 """
 
 import numpy as np
