@@ -134,7 +134,8 @@ SCHEMA = {
     },
     "time": {
         "end": Key(10.0, "number", "end time (s)", low=0, low_open=True),
-        "cfl": Key(0.5, "number", "time step as a fraction of the CFL-1 step of the upwind transport, in "
+        "cfl": Key(0.5, "number", "time step as a fraction of the CFL-1 step of the upwind transport (with a "
+                   "speed law: of the LWR transport), in "
                    "(0, 1] for upwind, (0, 0.5] for muscl and compressive, (0, 100] for implicit and "
                    "implicit-godunov"),
         "cfl_quantile": Key(0.0, "number", "the cell whose CFL-1 step time.cfl multiplies, as a quantile of the "
@@ -189,7 +190,9 @@ SCHEMA = {
     },
     "scheme": {
         "transport": Key("upwind", "choice", "the prediction: order-0 upwind; limited linear reconstruction with "
-                         "SSP-RK2 (muscl) or one Euler stage (compressive); backward-Euler upwind, positive at any "
+                         "SSP-RK2 (muscl; with a speed law Godunov's flux between the reconstructed values, always "
+                         "followed by the projection: docs/model.md, \"muscl with a speed law\") or one Euler stage "
+                         "(compressive, no speed law); backward-Euler upwind, positive at any "
                          "time step (implicit; with a speed law linearly implicit, the speed of the step's start); "
                          "the explicit fluxes (upwind; with a speed law the LWR fluxes, Godunov's for a unimodal "
                          "flow) with their rates at the step's start, implicit only in the cells whose CFL-1 step the "

@@ -115,8 +115,8 @@ class MacroModel:
             laws = [p.law for p in populations]
             if case["scheme"]["transport"] not in LWR_TRANSPORTS and not all(law.constant for law in laws):
                 raise InputError(case.file, "scheme.transport", case["scheme"]["transport"],
-                                 "a speed law is transported with the order-0 LWR fluxes: use 'upwind' or "
-                                 "'implicit' (or 'implicit-godunov')")
+                                 "a speed law needs a transport with the LWR fluxes: use one of "
+                                 f"{', '.join(map(repr, LWR_TRANSPORTS))}")
             self.state = MacroState.initial(initial_densities(case, domain), len(domain.exit_names),
                                             [p.name for p in populations])
             self.solver = MacroSolver(domain, scene.boundary, [p.velocity for p in populations],

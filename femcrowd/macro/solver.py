@@ -32,6 +32,7 @@ from .transport import IMPLICIT, LWR_TRANSPORTS, TRANSPORTS
 from .transport.capped import capped_step
 from .transport.implicit import ImplicitLWRTransport
 from .transport.lwr import LWRTransport, joint_max_dt
+from .transport.muscl_lwr import facet_fluxes, stages
 from .velocity import CongestionVelocity
 
 
@@ -65,12 +66,15 @@ class MacroSolver:
         for velocity in self.routing:
             velocity.seen = seen
         self.laws = [None if law is None or law.constant else law for law in (laws or [None] * len(self.velocities))]
-        #: False when every population has f(1) = 0 and the LWR step is explicit: the density stays <= 1
-        #: without the projection
         self.implicit = transport in IMPLICIT
-        self.needs_projection = self.implicit or any(law is None or law.saturates for law in self.laws)
         self.transport_class = TRANSPORTS[transport]
         self.lwr_class = LWR_TRANSPORTS.get(transport, LWRTransport)
+        #: False when every population has f(1) = 0 and the LWR step is the explicit order-0 one (bounded): the
+        #: density stays <= 1 without the projection
+        self.needs_projection = (self.implicit or not self.lwr_class.bounded
+                                 or any(law is None or law.saturates for law in self.laws))
+        #: the populations step together (muscl with a speed law: each stage's law sees the stage's total)
+        self.together = self.lwr_class.together and any(law is not None for law in self.laws)
         self.cfl, self.fixed_dt, self.quantile = cfl, dt, quantile
         self.direct_max, self.tol = direct_max, tol
         self.order = CellOrder()  # one nested-dissection order for the projections of every set of exits
@@ -90,7 +94,7 @@ class MacroSolver:
         if built is None or built[0] is not exits or built[1] != versions:
             # the cap of an interior door in the implicit solve needs its flows, and implicit-godunov is its own
             # scheme for f = 1 too: f = 1 as the linearly implicit scheme (solved in the order of the flow)
-            every = self._caps_in_solve(exits) or self.lwr_class.every_law
+            every = self._caps_in_solve(exits) or self.lwr_class.every_law or self.together
             constant = SpeedLaw("constant") if every else None
             schemes = [self.lwr_class(self.domain, exits, v.normal_on_facets(state, exits), law or constant)
                        if law is not None or constant is not None
@@ -194,6 +198,8 @@ class MacroSolver:
     def _predictions(self, state, schemes, exits, dt) -> list:
         """The Prediction of each population before the doors' cut: with the caps of the interior doors in the
         solve of the implicit transport (transport/capped.py), else each population's step."""
+        if self.together:
+            return stages(schemes, state.rho, dt)
         seen = self._seen(state, schemes)
         sources = self._sources(state)
         if self._caps_in_solve(exits):
@@ -239,7 +245,9 @@ class MacroSolver:
         schemes = self.transports(state, exits)
         facets = np.arange(len(self.domain.length)) if facets is None else facets
         seen = self._seen(state, schemes)
-        if self._caps_in_solve(exits):   # the prediction of the step, its interior doors capped in the solve
+        if self.together:
+            flux = facet_fluxes(schemes, state.rho, dt, facets)
+        elif self._caps_in_solve(exits):   # the prediction of the step, its interior doors capped in the solve
             predictions = self._predictions(state, schemes, exits, dt)
             flux = sum(scheme.facet_flux(rho, dt, *extra, facets=facets, predicted=p.rho)
                        for scheme, rho, extra, p in zip(schemes, state.rho, seen, predictions))

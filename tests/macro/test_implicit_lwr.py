@@ -228,6 +228,6 @@ def test_the_rarefaction_converges_at_small_steps():
 
 
 def test_a_transport_without_a_speed_law_scheme_is_refused():
-    """muscl has no speed-law scheme: the one-line error names the key and the transports that have one."""
-    with pytest.raises(InputError, match="use 'upwind' or 'implicit'"):
-        Simulation(load_case(CASES / "bottleneck", ["scheme.transport=muscl", "time.cfl=0.5"]))
+    """compressive has no speed-law scheme: the one-line error names the key and the transports that have one."""
+    with pytest.raises(InputError, match="use one of 'upwind', 'muscl', 'implicit', 'implicit-godunov'"):
+        Simulation(load_case(CASES / "bottleneck", ["scheme.transport=compressive", "time.cfl=0.5"]))

@@ -14,7 +14,7 @@ from femcrowd import Simulation, load_case
 from femcrowd.case import Expression
 from femcrowd.driver.scene import build_scene
 from femcrowd.macro.speed_law import SpeedLaw
-from femcrowd.macro.transport import TRANSPORTS, LWRTransport
+from femcrowd.macro.transport import TRANSPORTS, LWRTransport, MUSCLLWRTransport
 from femcrowd.macro.velocity import CongestionVelocity, ExitsVelocity
 from femcrowd.macro.walls import draining
 from femcrowd.mesh import Boundary, Domain
@@ -75,9 +75,10 @@ def test_the_paper_direction_traps_the_crowd_upstream_of_a_wedge():
     assert trapped.sum() >= 10 and np.mean(domain.centroid[trapped, 0] < 0.5) > 0.9
 
 
-@pytest.mark.parametrize("transport", ["upwind", "muscl", "compressive", "implicit", "weidmann"])
+@pytest.mark.parametrize("transport", ["upwind", "muscl", "compressive", "implicit", "weidmann", "muscl-weidmann"])
 def test_no_mass_stays_behind_a_wedge(transport):
-    """The prediction of every transport (and the LWR fluxes of Weidmann's law, push 0.2) from a crowd filling the
+    """The prediction of every transport (and the LWR fluxes of Weidmann's law, push 0.2, order 0 and muscl's) from a
+    crowd filling the
     room, until t = 5 (2.5 times the longest walk): with slip all but 1e-6 of it leaves; with the paper's direction
     what is in front of the wedge's tip stays for ever (the projection aside, which moves only a saturated crowd)."""
     domain = obstacle("wedge", 8)
@@ -87,8 +88,9 @@ def test_no_mass_stays_behind_a_wedge(transport):
     for walls in ("paper", "slip"):
         velocity = ExitsVelocity(domain, Expression("1"), walls=walls)
         normal = velocity.normal_on_facets(None, exits)
-        if transport == "weidmann":
-            scheme = LWRTransport(domain, exits, normal, SpeedLaw("weidmann", 5.4, 0.2))
+        if transport.endswith("weidmann"):
+            lwr = MUSCLLWRTransport if transport.startswith("muscl") else LWRTransport
+            scheme = lwr(domain, exits, normal, SpeedLaw("weidmann", 5.4, 0.2))
         else:
             scheme = TRANSPORTS[transport](domain, exits, normal, velocity.potential(exits))
         dt = scheme.max_dt * (10.0 if transport == "implicit" else scheme.max_cfl)

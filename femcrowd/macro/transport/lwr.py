@@ -30,6 +30,10 @@ class LWRTransport(UpwindTransport):
 
     #: whether a population without a speed law takes this scheme too (with f = 1), not the transport's own
     every_law = False
+    #: whether the step keeps the total density <= 1 when f(1) = 0 for every population (the projection skipped)
+    bounded = True
+    #: whether the populations step together (each stage's law seeing the stage's total: muscl_lwr.py)
+    together = False
 
     def __init__(self, domain, exits, normal_velocity, law):
         super().__init__(domain, exits, normal_velocity)
@@ -48,6 +52,8 @@ class LWRTransport(UpwindTransport):
         self.rate = np.concatenate([self.out0[f0], self.out1[f1]])
         self.flow_facet = np.concatenate([f0, f1])
         self.flow_sign = np.concatenate([np.ones(len(f0)), -np.ones(len(f1))])   # along f2t[0] -> f2t[1]
+        # where each flow reads the density its law sees on its two sides: the cells (muscl_lwr.py: their facet values)
+        self.sending, self.receiving = self.sender, self.receiver
         leaving = self.receiver == n
         self.exit_flows = np.flatnonzero(leaving)
         self.exit_of_flow = exits.group[f0[leaving[: len(f0)]]]
@@ -63,10 +69,11 @@ class LWRTransport(UpwindTransport):
 
     def flows(self, rho, total=None, which=slice(None)):
         """The mass rate of this population along each flow (of `which`, default all; sender -> receiver);
-        ``total``: the density of all populations, which the speed law sees (default: rho, one population)."""
+        ``total``: the density of all populations, which the speed law sees (default: rho, one population).
+        rho and total are read at self.sending and self.receiving (index len(total): the empty outside)."""
         total = rho if total is None else total
         seen = np.append(total, 0.0)   # the outside is empty
-        sender, receiver = self.sender[which], self.receiver[which]
+        sender, receiver = self.sending[which], self.receiving[which]
         if self.godunov:
             flux = np.minimum(law_at(self.law.demand, seen, sender), law_at(self.law.supply, seen, receiver))
         else:
@@ -81,7 +88,11 @@ class LWRTransport(UpwindTransport):
         the capped door facets (capped by the doors: min(D, c, S), mesh/capacity.py)."""
         if dt > self.max_dt * (1 + 1e-12):
             raise ValueError(f"dt = {dt:.6g} exceeds the CFL limit {self.max_dt:.6g} of the LWR transport")
-        flux = self.flows(rho, total)
+        return self.balance(rho, self.flows(rho, total), dt)
+
+    def balance(self, rho, flux, dt) -> Prediction:
+        """The forward-Euler step of rho by the mass rates ``flux`` of the flows over dt, with what left through
+        each exit and the net mass through the capped door facets."""
         n = len(rho)
         net = np.bincount(self.receiver, flux, n + 1)[:n] - np.bincount(self.sender, flux, n)
         rho_t = rho + (dt / self.domain.area) * net

@@ -7,8 +7,9 @@ import scipy.sparse as sp
 from .upwind import Prediction, UpwindTransport
 
 
-class MUSCLTransport(UpwindTransport):
-    """``[scheme] transport = "muscl"``: linear reconstruction + SSP-RK2, the same upwind fluxes.
+class Reconstruction:
+    """Limited linear reconstruction (Barth, Jespersen 1989) of a cell field on the facets of every cell, for a
+    transport with outflow rates q_{K,e}^+ (out0, out1 of UpwindTransport, |e| (U.n)^+ across each facet).
 
     Per cell a least-squares gradient g_K from the face neighbours' centroids, limited by
     Barth-Jespersen (facet values rho_K + phi_K g_K . (m_e - c_K) stay within the min/max
@@ -17,20 +18,12 @@ class MUSCLTransport(UpwindTransport):
 
         dt sum_e q_{K,e}^+ (rho_K + phi_K delta_{K,e}) <= |K| rho_K,
 
-    which holds for phi_K = 0 whenever dt <= max_dt (the upwind CFL limit). Each stage is
-    the upwind flux balance with these facet values; SSP-RK2 (Heun) averages two stages:
-    rho~ = (rho + E(E(rho))) / 2. Hence rho~ >= 0 at the same dt as order 0, mass is
-    conservative (one flux per facet) and the evacuated mass is the mean of the stages'.
-
+    which holds for phi_K = 0 whenever dt <= |K| / sum_e q_{K,e}^+ (the upwind CFL limit). A flux that carries
+    at most q_{K,e}^+ times the sender's facet value (the upwind flux, the LWR fluxes: lwr.py) keeps rho >= 0.
     """
 
-    #: rho~ >= 0 holds up to max_dt; the local extremum diminishing property of limited
-    #: reconstructions with Euler stages needs half of it (docs/convergence.md)
-    max_cfl = 0.5
-    stages = 2
-
-    def __init__(self, domain, exits, normal_velocity, potential=None):
-        super().__init__(domain, exits, normal_velocity)
+    def __init__(self, domain, out0, out1):
+        self.domain = domain
         k0, k1 = domain.f2t
         inner = domain.interior
         i, j = k0[inner], k1[inner]
@@ -51,7 +44,7 @@ class MUSCLTransport(UpwindTransport):
         self.neighbour = np.where(inner[t2f], k0[t2f] + k1[t2f] - cells, cells)
         self.offset = domain.midpoint[t2f] - domain.centroid[None]    # (3, n, 2): m_e - c_K
         own = k0[t2f] == cells                        # is K the f2t[0] side of its facet?
-        self.outflow = np.where(own, self.out0[t2f], self.out1[t2f])   # q_{K,e}^+ (3, n)
+        self.outflow = np.where(own, out0[t2f], out1[t2f])   # q_{K,e}^+ (3, n)
         self.total_outflow = self.outflow.sum(0)
         # flat (3 n) positions of the f2t[0] and f2t[1] cells' values on each facet
         nf = len(domain.length)
@@ -59,14 +52,8 @@ class MUSCLTransport(UpwindTransport):
         flat = np.arange(3 * n).reshape(3, n)
         self.pos0[t2f[own]] = flat[own]
         self.pos1[t2f[~own]] = flat[~own]
-        # mass rate per cell = divergence @ (net flux k0 -> k1 per facet)
-        f = np.arange(nf)
-        self.divergence = sp.csr_matrix((np.concatenate([-np.ones(nf), np.ones(len(i))]),
-                                         (np.concatenate([k0, j]), np.concatenate([f, f[inner]]))), shape=(n, nf))
-        ex = np.flatnonzero(exits.exit)
-        self.exit_flux = sp.csr_matrix((self.out0[ex], (exits.group[ex], ex)), shape=(len(exits.names), nf))
 
-    def _facet_values(self, rho, dt):
+    def __call__(self, rho, dt):
         """Limited reconstructed values of every cell on its 3 facets, shape (3, n)."""
         gx, gy = self.gradient[0] @ rho, self.gradient[1] @ rho
         delta = self.offset[..., 0] * gx
@@ -83,11 +70,41 @@ class MUSCLTransport(UpwindTransport):
         phi = np.where(spill > 0, np.minimum(phi, room), phi)   # positivity of the stage
         return rho + phi * delta
 
+
+class MUSCLTransport(UpwindTransport):
+    """``[scheme] transport = "muscl"``: linear reconstruction + SSP-RK2, the same upwind fluxes.
+
+    Each stage is the upwind flux balance with the limited facet values of ``Reconstruction``;
+    SSP-RK2 (Heun) averages two stages: rho~ = (rho + E(E(rho))) / 2. Hence rho~ >= 0 at the same
+    dt as order 0, mass is conservative (one flux per facet) and the evacuated mass is the mean of
+    the stages'. With a speed law the same stages carry Godunov's flux (muscl_lwr.py).
+
+    """
+
+    #: rho~ >= 0 holds up to max_dt; the local extremum diminishing property of limited
+    #: reconstructions with Euler stages needs half of it (docs/convergence.md)
+    max_cfl = 0.5
+    stages = 2
+
+    def __init__(self, domain, exits, normal_velocity, potential=None):
+        super().__init__(domain, exits, normal_velocity)
+        self.reconstruction = Reconstruction(domain, self.out0, self.out1)
+        k0, k1 = domain.f2t
+        inner = domain.interior
+        n, nf = domain.ncells, len(domain.length)
+        # mass rate per cell = divergence @ (net flux k0 -> k1 per facet)
+        f = np.arange(nf)
+        self.divergence = sp.csr_matrix((np.concatenate([-np.ones(nf), np.ones(np.count_nonzero(inner))]),
+                                         (np.concatenate([k0, k1[inner]]), np.concatenate([f, f[inner]]))),
+                                        shape=(n, nf))
+        ex = np.flatnonzero(exits.exit)
+        self.exit_flux = sp.csr_matrix((self.out0[ex], (exits.group[ex], ex)), shape=(len(exits.names), nf))
+
     def _net(self, rho, dt):
         """The mass rate of each facet k0 -> k1 (or out of an exit) with the limited facet values, and the
         values of the f2t[0] cells."""
-        values = self._facet_values(rho, dt).ravel()
-        f0, f1 = values[self.pos0], values[self.pos1]
+        values = self.reconstruction(rho, dt).ravel()
+        f0, f1 = values[self.reconstruction.pos0], values[self.reconstruction.pos1]
         return self.out0 * f0 - self.out1 * f1, f0
 
     def _euler(self, rho, dt) -> Prediction:
