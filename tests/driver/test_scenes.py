@@ -107,19 +107,25 @@ def test_a_case_without_the_new_keys_adds_nothing_per_step():
     assert result.measurements is None and "inflow" not in result.history
 
 
+def write_scene(here, plan, case):
+    """The plan (plan.toml, meshed: plan.msh) and the case (case.toml) of a test's scene in the folder `here`."""
+    (here / "plan.toml").write_text(plan)
+    build_mesh(here / "plan.toml")
+    (here / "case.toml").write_text(case)
+
+
 # --- inflow sources -------------------------------------------------------------------------------
 
 @pytest.fixture(scope="module")
 def channel(tmp_path_factory):
     """A 4 m x 1 m channel: "entrance" at x = 0, "exit" at x = 4, and its case (U = (1, 0))."""
     here = tmp_path_factory.mktemp("channel")
-    (here / "plan.toml").write_text('size = 0.1\n[outer]\npoints = [[0, 0], [4, 0], [4, 1], [0, 1]]\n'
-                                    '[[exits]]\nname = "entrance"\nfrom = [0, 0]\nto = [0, 1]\n'
-                                    '[[exits]]\nname = "exit"\nfrom = [4, 0]\nto = [4, 1]\n')
-    build_mesh(here / "plan.toml")
-    (here / "case.toml").write_text('[mesh]\nfile = "plan.msh"\n[boundary]\nexits = ["exit"]\n'
-                                    '[velocity]\ntype = "field"\nux = 1.0\n[time]\nend = 2.0\n'
-                                    '[[sources]]\nboundary = "entrance"\nflow = 0.3\nstart = 0.5\nend = 1.5\n')
+    write_scene(here, 'size = 0.1\n[outer]\npoints = [[0, 0], [4, 0], [4, 1], [0, 1]]\n'
+                      '[[exits]]\nname = "entrance"\nfrom = [0, 0]\nto = [0, 1]\n'
+                      '[[exits]]\nname = "exit"\nfrom = [4, 0]\nto = [4, 1]\n',
+                      '[mesh]\nfile = "plan.msh"\n[boundary]\nexits = ["exit"]\n'
+                      '[velocity]\ntype = "field"\nux = 1.0\n[time]\nend = 2.0\n'
+                      '[[sources]]\nboundary = "entrance"\nflow = 0.3\nstart = 0.5\nend = 1.5\n')
     return here
 
 
@@ -211,13 +217,12 @@ def stream(tmp_path_factory):
     """A 12 m x 2 m corridor: people arrive at q = 1 /(m s) through its west side and walk at v = 1.3 m/s to the
     east side, all exit (U = (v, 0))."""
     here = tmp_path_factory.mktemp("stream")
-    (here / "plan.toml").write_text('size = 0.25\n[outer]\npoints = [[0, 0], [12, 0], [12, 2], [0, 2]]\n'
-                                    '[[exits]]\nname = "entrance"\nfrom = [0, 2]\nto = [0, 0]\n'
-                                    '[[exits]]\nname = "exit"\nfrom = [12, 0]\nto = [12, 2]\n')
-    build_mesh(here / "plan.toml")
-    (here / "case.toml").write_text('[mesh]\nfile = "plan.msh"\n[boundary]\nexits = ["exit"]\n'
-                                    '[velocity]\nspeed = 1.3\n[time]\nend = 15.0\n[output]\nevery = 15.0\n'
-                                    '[[sources]]\nboundary = "entrance"\nflow = 1.0\n')
+    write_scene(here, 'size = 0.25\n[outer]\npoints = [[0, 0], [12, 0], [12, 2], [0, 2]]\n'
+                      '[[exits]]\nname = "entrance"\nfrom = [0, 2]\nto = [0, 0]\n'
+                      '[[exits]]\nname = "exit"\nfrom = [12, 0]\nto = [12, 2]\n',
+                      '[mesh]\nfile = "plan.msh"\n[boundary]\nexits = ["exit"]\n'
+                      '[velocity]\nspeed = 1.3\n[time]\nend = 15.0\n[output]\nevery = 15.0\n'
+                      '[[sources]]\nboundary = "entrance"\nflow = 1.0\n')
     return here
 
 
@@ -244,20 +249,27 @@ def test_a_steady_stream_from_a_source_is_as_dense_as_its_flow_and_speed_make_it
     assert held == pytest.approx(1.0 / 1.3, rel=2e-2)
 
 
+def short_stream(here, exit_span, capped, end, doors=""):
+    """The corridor of `stream` 6 m long (its exit on x = 6 over y in `exit_span`, interior `doors` of the plan):
+    people arrive at 1 /(m s) through its west side and walk at 1.3 m/s, the boundary `capped` has a capacity of
+    0.5 /(m s), the run ends at `end`."""
+    low, high = exit_span
+    write_scene(here, 'size = 0.25\n[outer]\npoints = [[0, 0], [6, 0], [6, 2], [0, 2]]\n'
+                      '[[exits]]\nname = "entrance"\nfrom = [0, 2]\nto = [0, 0]\n'
+                      f'[[exits]]\nname = "exit"\nfrom = [6, {low}]\nto = [6, {high}]\n' + doors,
+                      '[mesh]\nfile = "plan.msh"\n[boundary]\nexits = ["exit"]\n'
+                      f'[boundary.capacity]\n{capped} = 0.5\n[velocity]\nspeed = 1.3\n'
+                      f'[time]\nend = {end}\n[output]\nevery = {end}\n'
+                      '[[sources]]\nboundary = "entrance"\nflow = 1.0\n')
+
+
 @STEPS
 def test_a_source_behind_a_jam_queues_outside_at_any_step(tmp_path, step):
     """The same corridor, 6 m long, emptied by a 0.5 m exit of capacity 0.5 /(m s): the jam fills it back to the
     entrance, and what cannot enter waits outside. The room an implicit step adds to a source's cell is bounded by
     the free space of the rest of its part of the floor: the corridor never holds more than its 12 m^2, and
     arrived = inflow + queued to round-off."""
-    (tmp_path / "plan.toml").write_text('size = 0.25\n[outer]\npoints = [[0, 0], [6, 0], [6, 2], [0, 2]]\n'
-                                        '[[exits]]\nname = "entrance"\nfrom = [0, 2]\nto = [0, 0]\n'
-                                        '[[exits]]\nname = "exit"\nfrom = [6, 0.75]\nto = [6, 1.25]\n')
-    build_mesh(tmp_path / "plan.toml")
-    (tmp_path / "case.toml").write_text('[mesh]\nfile = "plan.msh"\n[boundary]\nexits = ["exit"]\n'
-                                        '[boundary.capacity]\nexit = 0.5\n[velocity]\nspeed = 1.3\n'
-                                        '[time]\nend = 20.0\n[output]\nevery = 20.0\n'
-                                        '[[sources]]\nboundary = "entrance"\nflow = 1.0\n')
+    short_stream(tmp_path, (0.75, 1.25), "exit", 20.0)
     h = macro_run(tmp_path, step).history
     assert_invariants(h, tol=1e-12)
     assert h["mass"].max() <= 12.0 * (1 + 1e-12) and h["mass"][-1] > 11.9
@@ -275,15 +287,7 @@ def test_a_source_behind_a_door_at_capacity_fills_its_room_then_queues(tmp_path,
     invariants to round-off. The room, saturated with its only door at capacity, is a closed room of the
     projection (its door nodes push back like walls: Capacities.rooms); the door at 0.75 m stopped the run with
     a singular factorisation at either step."""
-    (tmp_path / "plan.toml").write_text('size = 0.25\n[outer]\npoints = [[0, 0], [6, 0], [6, 2], [0, 2]]\n'
-                                        '[[exits]]\nname = "entrance"\nfrom = [0, 2]\nto = [0, 0]\n'
-                                        '[[exits]]\nname = "exit"\nfrom = [6, 0]\nto = [6, 2]\n'
-                                        f'[[doors]]\nname = "door"\nfrom = [{door}, 0]\nto = [{door}, 2]\n')
-    build_mesh(tmp_path / "plan.toml")
-    (tmp_path / "case.toml").write_text('[mesh]\nfile = "plan.msh"\n[boundary]\nexits = ["exit"]\n'
-                                        '[boundary.capacity]\ndoor = 0.5\n[velocity]\nspeed = 1.3\n'
-                                        '[time]\nend = 6.5\n[output]\nevery = 6.5\n'
-                                        '[[sources]]\nboundary = "entrance"\nflow = 1.0\n')
+    short_stream(tmp_path, (0.0, 2.0), "door", 6.5, f'[[doors]]\nname = "door"\nfrom = [{door}, 0]\nto = [{door}, 2]\n')
     h = macro_run(tmp_path, step).history
     assert_invariants(h, tol=1e-12)
     np.testing.assert_allclose(h["inflow"] + h["queued"], 2.0 * h["time"], rtol=1e-12)
@@ -342,12 +346,11 @@ def test_two_doors_in_one_wall_empty_the_room(tmp_path):
     Each ridge cell heads for its own nearest door (docs/model.md), so the room empties to 1e-9 of the
     crowd (the P1 gradient of the joint distance there kept a layer at the wall for good), every ridge
     cell's U is a descent direction of d, and the cells off the ridge keep the joint field's gradient."""
-    (tmp_path / "plan.toml").write_text('size = 0.25\n[outer]\npoints = [[0, 0], [6, 0], [6, 4], [0, 4]]\n'
-                                        '[[exits]]\nname = "left"\nfrom = [0.5, 0]\nto = [1.5, 0]\n'
-                                        '[[exits]]\nname = "right"\nfrom = [4.5, 0]\nto = [5.5, 0]\n')
-    build_mesh(tmp_path / "plan.toml")
-    (tmp_path / "case.toml").write_text('[mesh]\nfile = "plan.msh"\n[boundary]\nexits = ["left", "right"]\n'
-                                        '[initial]\ndensity = 0.5\n[time]\nend = 60.0\nempty_fraction = 1e-9\n')
+    write_scene(tmp_path, 'size = 0.25\n[outer]\npoints = [[0, 0], [6, 0], [6, 4], [0, 4]]\n'
+                          '[[exits]]\nname = "left"\nfrom = [0.5, 0]\nto = [1.5, 0]\n'
+                          '[[exits]]\nname = "right"\nfrom = [4.5, 0]\nto = [5.5, 0]\n',
+                          '[mesh]\nfile = "plan.msh"\n[boundary]\nexits = ["left", "right"]\n'
+                          '[initial]\ndensity = 0.5\n[time]\nend = 60.0\nempty_fraction = 1e-9\n')
     sim = Simulation(load_case(tmp_path))
     summary = sim.run().summary
     assert summary["evacuation_time"] < 20.0    # the last person from the far corner walks ~5 m
